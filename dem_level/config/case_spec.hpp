@@ -1,0 +1,193 @@
+#pragma once
+// The parsed case: plain values only. The physics is configured from these
+// structs and never sees a TOML node. Every field is documented, with its TOML
+// key, in cases/README.md. Lengths in m, times in s (simulated), angles none.
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/vec3.hpp"
+
+namespace mlcg::config {
+
+// Where a table came from, so checks made after parsing can still name file:line.
+struct SourceLoc {
+  std::string file;
+  int line = 0;
+  std::string str() const { return file + ":" + std::to_string(line); }
+};
+
+struct MaterialSpec {              // [[materials]]
+  std::string name;                // name
+  double youngs_modulus = 0.0;     // youngs_modulus  > 0
+  double poisson_ratio = 0.0;      // poisson_ratio   in [0, 0.5)
+  double density = 0.0;            // density         > 0
+  SourceLoc loc;
+};
+
+struct InteractionSpec {           // [[interactions]]
+  std::string a, b;                // between = ["m1", "m2"]
+  double restitution = 0.0;        // restitution     in (0, 1]
+  double friction = 0.0;           // friction        >= 0
+  double rolling_friction = 0.0;   // rolling_friction >= 0 (needs [contact] rolling = "cdt")
+  SourceLoc loc;
+};
+
+struct ContactSpec {               // [contact]
+  std::string normal = "hertz";    // normal: "hertz"
+  std::string tangential = "history";  // tangential: "history" | "none"
+  std::string rolling = "none";    // rolling: "none" | "cdt"
+  bool clamp_normal = false;       // clamp_normal: clamp the normal force at zero (no attraction)
+};
+
+struct LevelSpec {                 // [[levels]]
+  std::string name = "level0";     // name
+  double alpha = 1.0;              // alpha: coarse-grain ratio >= 1; radii of every insertion are scaled by it
+  double dt = 0.0;                 // dt > 0
+  int ranks = 1;                   // ranks >= 1 (MPI processes of this level)
+  double skin = 0.0;               // skin >= 0 [m]; 0 = automatic (0.3 x largest level radius)
+  SourceLoc loc;
+};
+
+struct DomainSpec {                // [domain]
+  Vec3 min, max;                   // min, max: particles leaving this box are removed and counted
+};
+
+enum class WallType { Plane, Cylinder, Cone, Disk, Mesh };
+
+struct WallSpec {                  // [[walls]]
+  std::string name;                // name (unique; events refer to it)
+  WallType type = WallType::Plane; // type: "plane" | "cylinder" | "cone" | "disk" | "mesh"
+  std::string material;            // material (a [[materials]] name)
+  // plane: a half-space boundary; particles live on the side `normal` points to
+  Vec3 point, normal{0, 0, 1};     // point, normal
+  // cylinder / cone / disk: surface of revolution about the axis through `center`
+  Vec3 center, axis{0, 0, 1};      // center, axis (need not be unit; normalised)
+  double radius = 0.0;             // radius (cylinder, disk)
+  double radius_bottom = 0.0;      // radius_bottom, radius_top (cone) at s = bottom / top
+  double radius_top = 0.0;
+  double bottom = 0.0, top = 0.0;  // bottom < top: extent along the axis, measured from center (cylinder, cone)
+  bool rim_bottom = false;         // rims = "none" | "bottom" | "top" | "both": contacts with the end circles
+  bool rim_top = false;
+  // mesh
+  std::string file;                // file: STL (ASCII or binary), relative to the case file's folder
+  double scale = 1.0;              // scale > 0 applied to the file's coordinates, then
+  Vec3 offset;                     // offset added
+  SourceLoc loc;
+};
+
+enum class RadiusKind { Constant, Uniform, Discrete };
+
+struct RadiusSpec {                // radius = 1.4e-3  or  radius = { uniform = [min, max] }
+  RadiusKind kind = RadiusKind::Constant;  //        or  radius = { values = [...], fractions = [...] }
+  double value = 0.0;
+  double min = 0.0, max = 0.0;
+  std::vector<double> values, fractions;   // fractions by number, sum to 1
+  double largest() const;
+  double smallest() const;
+  double mean_volume_factor() const;  // E[r^3]
+};
+
+enum class RegionType { Box, Cylinder };
+
+struct RegionSpec {                // region = { type = "box", min = [...], max = [...] }
+  RegionType type = RegionType::Box;  //   or { type = "cylinder", center = [x, y], radius, zmin, zmax } (axis = z)
+  Vec3 min, max;                   // box, and the bounding box of a cylinder region after parsing
+  double cx = 0.0, cy = 0.0, radius = 0.0;  // cylinder
+};
+
+struct InsertionSpec {             // [[insertion]]
+  std::string name;                // name
+  std::string material;            // material
+  RegionSpec region;               // region (inside the domain)
+  RadiusSpec radius;               // radius at alpha = 1
+  int64_t count = -1;              // count: particles of this level to insert, or
+  double mass = -1.0;              // mass [kg] in total; exactly one of count / mass
+  double rate = -1.0;              // rate [particles/s], or
+  double mass_rate = -1.0;         // mass_rate [kg/s]; neither = everything in the first batch
+  double start = 0.0;              // start >= 0
+  double interval = 0.0;           // interval: batch period [s]; 0 = automatic
+  Vec3 velocity;                   // velocity [m/s]
+  double follow_gap = -1.0;        // follow_gap >= 0: each batch the region's bottom moves to this height
+                                   //   above the highest particle below it (fill close above the heap)
+  int max_attempts = 200;          // max_attempts: SSI candidates per particle before it counts as unplaced
+  SourceLoc loc;
+};
+
+struct EventSpec {                 // [[events]]
+  std::string name;                // name
+  double at = -1.0;                // at: fire at this time, or a condition:
+  bool after_insertion = false;    // after_insertion: only once every insertion has finished
+  double mean_speed_below = -1.0;  // mean_speed_below [m/s]: fire when the mass-weighted mean speed drops below
+  double check_interval = 0.01;    // check_interval [s]
+  double latest = std::numeric_limits<double>::infinity();  // latest: fire then at the latest (warns)
+  std::vector<std::string> remove_walls;  // remove_walls = ["lid"]
+  SourceLoc loc;
+};
+
+struct TimeSpec {                  // [time]
+  double end = -1.0;               // end [s], or
+  std::string end_event;           // end = { event = "open", plus = 0.6 }
+  double end_plus = 0.0;
+  double progress_interval = 2.0;  // progress_interval [wall s] between progress lines
+};
+
+struct ProbeSpec {                 // [[probes]]  mass-flow probe: disk in a plane
+  std::string name;
+  Vec3 point;                      // point (centre, inside the domain)
+  Vec3 normal{0, 0, -1};           // normal: positive flow direction
+  double radius = 0.0;             // radius > 0
+  double sample_rate = 100.0;      // sample_rate [Hz]
+  double window_start = 0.0;       // window = [t0, t1] for mean and std of the mass flow
+  double window_end = std::numeric_limits<double>::infinity();
+  std::string window_event;        // window_relative_to = "open": the window counts from that event
+  SourceLoc loc;
+};
+
+struct GridSpec {                  // [[grids]] cell statistics
+  std::string name;
+  Vec3 min, max;                   // min, max (inside the domain)
+  double cell_size = 0.0;          // cell_size > 0 (cubic cells; the box is rounded up to whole cells)
+  double sample_interval = 0.0;    // sample_interval [s]: 0 = every output_interval
+  double output_interval = 0.0;    // output_interval [s] > 0: averages written this often
+  SourceLoc loc;
+};
+
+struct OutputSpec {                // [output]
+  double snapshot_interval = 0.0;  // snapshot_interval [s]; 0 = only the final state
+  double checkpoint_interval = 0.0;// checkpoint_interval [s]; 0 = only at the end
+  double stats_interval = 0.01;    // stats_interval [s]: rows of series.csv
+};
+
+struct StabilitySpec {             // [stability]
+  double rayleigh_fraction = 0.2;  // rayleigh_fraction in (0,1]: dt must not exceed this share of the Rayleigh time
+  double min_steps_per_contact = 10.0;  // min_steps_per_contact: Hertz contact at max_impact_speed
+  double max_overlap_fraction = 0.3;    // max_overlap_fraction: stop if an overlap exceeds this share of the smaller radius
+  double max_impact_speed = -1.0;  // max_impact_speed [m/s]; < 0 = estimated from insertion speed and free fall
+  std::string dt_override_reason;  // dt_override_reason: set to accept a dt above the guard, saying why
+};
+
+struct CaseSpec {
+  std::string path;                // the case file as given
+  std::string dir;                 // its folder (relative files resolve here)
+  std::string title;               // title
+  uint64_t seed = 1;               // seed
+  Vec3 gravity{0.0, 0.0, -9.81};   // gravity
+  std::vector<MaterialSpec> materials;
+  std::vector<InteractionSpec> interactions;
+  ContactSpec contact;
+  std::vector<LevelSpec> levels;
+  DomainSpec domain;
+  std::vector<WallSpec> walls;
+  std::vector<InsertionSpec> insertions;
+  std::vector<EventSpec> events;
+  std::vector<ProbeSpec> probes;
+  std::vector<GridSpec> grids;
+  OutputSpec output;
+  StabilitySpec stability;
+  TimeSpec time;
+};
+
+}  // namespace mlcg::config

@@ -1,0 +1,66 @@
+#include "core/particles.hpp"
+
+#include <numbers>
+
+namespace mlcg {
+
+void Particles::add(const ParticleInit& p) {
+  const double vol = 4.0 / 3.0 * std::numbers::pi * p.radius * p.radius * p.radius;
+  const double m = p.density * vol;
+  x.push_back(p.x);
+  v.push_back(p.v);
+  f.push_back({});
+  omega.push_back(p.omega);
+  torque.push_back({});
+  radius.push_back(p.radius);
+  mass.push_back(m);
+  inv_mass.push_back(1.0 / m);
+  inv_inertia.push_back(1.0 / (0.4 * m * p.radius * p.radius));
+  id.push_back(p.id);
+  material.push_back(p.material);
+  n_local_ = x.size();
+}
+
+namespace {
+template <class T>
+void apply(std::vector<T>& a, const std::vector<int32_t>& new_to_old) {
+  std::vector<T> out(new_to_old.size());
+  for (size_t k = 0; k < new_to_old.size(); ++k) out[k] = a[static_cast<size_t>(new_to_old[k])];
+  a.swap(out);
+}
+}  // namespace
+
+void Particles::permute(const std::vector<int32_t>& n2o) {
+  apply(x, n2o); apply(v, n2o); apply(f, n2o); apply(omega, n2o); apply(torque, n2o);
+  apply(radius, n2o); apply(mass, n2o); apply(inv_mass, n2o); apply(inv_inertia, n2o);
+  apply(id, n2o); apply(material, n2o);
+  n_local_ = x.size();
+}
+
+void Particles::clear_forces() {
+  for (auto& a : f) a = {};
+  for (auto& a : torque) a = {};
+}
+
+void Particles::reserve(size_t n) {
+  x.reserve(n); v.reserve(n); f.reserve(n); omega.reserve(n); torque.reserve(n);
+  radius.reserve(n); mass.reserve(n); inv_mass.reserve(n); inv_inertia.reserve(n);
+  id.reserve(n); material.reserve(n);
+}
+
+void ContactHistory::permute(const std::vector<int32_t>& n2o, size_t n_new_total) {
+  ContactHistory out;
+  out.first.assign(n_new_total + 1, 0);
+  for (size_t k = 0; k < n2o.size(); ++k) {
+    const auto o = static_cast<size_t>(n2o[k]);
+    for (int32_t s = first[o]; s < first[o + 1]; ++s) {
+      out.key.push_back(key[static_cast<size_t>(s)]);
+      out.value.push_back(value[static_cast<size_t>(s)]);
+    }
+    out.first[k + 1] = static_cast<int32_t>(out.key.size());
+  }
+  for (size_t k = n2o.size(); k < n_new_total; ++k) out.first[k + 1] = out.first[k];
+  *this = std::move(out);
+}
+
+}  // namespace mlcg

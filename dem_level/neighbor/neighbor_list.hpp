@@ -1,0 +1,74 @@
+#pragma once
+// Neighbour search: particles are binned into cubic cells no smaller than the
+// largest interaction distance (2 r_max + skin), and a half Verlet list is
+// built from the 27 surrounding cells: each pair (i, j) appears once, under
+// the smaller index i, when |x_i - x_j| < r_i + r_j + skin. Ghost particles
+// (index >= n_local) only ever appear as j. The list is rebuilt when some
+// particle has moved more than skin/2 since the last build.
+//
+// Tangential contact history lives beside the list (hist[k] for pair k) while
+// the list is valid; across a rebuild it goes through a ContactHistory keyed by
+// particle id, so it survives reordering, removal and migration.
+#include <cstdint>
+#include <vector>
+
+#include "core/particles.hpp"
+#include "core/vec3.hpp"
+
+namespace mlcg {
+
+class CellBins {
+ public:
+  // Bin particles [0, count) of x into cells of at least min_cell over their bounding box.
+  // The number of cells is capped at about 8 per particle by enlarging the cells.
+  void build(const std::vector<Vec3>& x, size_t count, double min_cell);
+  int cell_of(const Vec3& p) const;
+  void cell_coords(const Vec3& p, int& ix, int& iy, int& iz) const;
+  int index(int ix, int iy, int iz) const { return (iz * ny_ + iy) * nx_ + ix; }
+  int nx() const { return nx_; }
+  int ny() const { return ny_; }
+  int nz() const { return nz_; }
+  double cell_size() const { return h_; }
+  // Particles of cell c: sorted[start[c] .. start[c+1]).
+  const std::vector<int32_t>& start() const { return start_; }
+  const std::vector<int32_t>& sorted() const { return sorted_; }
+
+ private:
+  Vec3 lo_;
+  double h_ = 1.0, inv_h_ = 1.0;
+  int nx_ = 1, ny_ = 1, nz_ = 1;
+  std::vector<int32_t> start_, sorted_, cell_;
+};
+
+class NeighborList {
+ public:
+  std::vector<int32_t> first{0};  // n_local + 1 offsets into neigh
+  std::vector<int32_t> neigh;
+  std::vector<Vec3> hist;         // one per pair when the model keeps history
+
+  void set_skin(double skin) { skin_ = skin; }
+  double skin() const { return skin_; }
+
+  // Build the half list for the current positions; keeps x_build for the displacement test.
+  void build(const Particles& p, bool with_history);
+  bool needs_rebuild(const Particles& p) const;
+
+  // Move the history of touching pairs into per-particle storage (both partners
+  // get an entry: i holds +h under id_j, j holds -h under id_i).
+  void save_history(const Particles& p, ContactHistory& out) const;
+  // Fill hist[] for the freshly built list from per-particle storage.
+  void load_history(const Particles& p, const ContactHistory& in);
+
+  const CellBins& bins() const { return bins_; }
+  size_t pairs() const { return neigh.size(); }
+  uint64_t builds() const { return builds_; }
+  void set_builds(uint64_t b) { builds_ = b; }
+
+ private:
+  double skin_ = 0.0;
+  std::vector<Vec3> x_build_;
+  CellBins bins_;
+  uint64_t builds_ = 0;
+};
+
+}  // namespace mlcg
