@@ -1,1 +1,61 @@
-int main(){return 0;}
+// dem_level: runs one coarse-grain level of a case. Normally started by
+// `mlcg run`; can be run by hand for a single-level case.
+#include <mpi.h>
+
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+
+#include "config/case_parser.hpp"
+#include "level/level.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"dem_level: one DEM level of an MLCG case"};
+  std::string case_file, out_dir, restart;
+  int64_t max_steps = -1;
+  bool quiet = false;
+  app.add_option("case", case_file, "case file (TOML)")->required();
+  app.add_option("--out", out_dir, "run folder")->required();
+  app.add_option("--restart", restart, "continue from this checkpoint");
+  app.add_option("--max-steps", max_steps, "stop after this many steps (writes a checkpoint)");
+  app.add_flag("--quiet", quiet, "no progress lines on the console");
+  CLI11_PARSE(app, argc, argv);
+
+  MPI_Init(&argc, &argv);
+  int ranks = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  int code = 0;
+  try {
+    const auto cs = mlcg::config::load_case(case_file);
+    if (ranks != cs.levels.front().ranks)
+      throw std::runtime_error("dem_level was started on " + std::to_string(ranks) + " MPI ranks but the case asks for " +
+                               std::to_string(cs.levels.front().ranks));
+    if (ranks > 1)
+      throw std::runtime_error("MPI domain decomposition is not available yet: set [[levels]] ranks = 1");
+    mlcg::install_signal_handlers();
+    mlcg::LevelOptions opt;
+    opt.out_dir = out_dir;
+    opt.restart = restart;
+    opt.max_steps = max_steps;
+    opt.quiet = quiet;
+    mlcg::Level level(cs, opt);
+    switch (level.run()) {
+      case mlcg::RunStatus::Completed:
+      case mlcg::RunStatus::StepLimit: code = 0; break;
+      case mlcg::RunStatus::Interrupted: code = 130; break;
+      case mlcg::RunStatus::Failed: code = 3; break;
+    }
+  } catch (const mlcg::config::CaseError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    code = 2;
+  } catch (const mlcg::StabilityError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    code = 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    code = 1;
+  }
+  MPI_Finalize();
+  return code;
+}

@@ -112,7 +112,18 @@ struct InsertionSpec {             // [[insertion]]
   Vec3 velocity;                   // velocity [m/s]
   double follow_gap = -1.0;        // follow_gap >= 0: each batch the region's bottom moves to this height
                                    //   above the highest particle below it (fill close above the heap)
+  double follow_height = 0.0;      // follow_height > 0 [m]: height of the slab used with follow_gap;
+                                   //   0 = 10 largest radii
   int max_attempts = 200;          // max_attempts: SSI candidates per particle before it counts as unplaced
+  SourceLoc loc;
+};
+
+struct ParticleSpec {              // [[particles]] one particle placed explicitly (validation scenes)
+  std::string material;            // material
+  double radius = 0.0;             // radius > 0 at alpha = 1 (the level scales it by alpha)
+  Vec3 position;                   // position (inside the domain)
+  Vec3 velocity;                   // velocity [m/s]
+  Vec3 omega;                      // omega [rad/s]
   SourceLoc loc;
 };
 
@@ -182,6 +193,7 @@ struct CaseSpec {
   DomainSpec domain;
   std::vector<WallSpec> walls;
   std::vector<InsertionSpec> insertions;
+  std::vector<ParticleSpec> particles;
   std::vector<EventSpec> events;
   std::vector<ProbeSpec> probes;
   std::vector<GridSpec> grids;

@@ -1,0 +1,306 @@
+// The case file: the top level, the physics tables ([[materials]],
+// [[interactions]], [contact], [[levels]], [domain], [output], [stability],
+// [time]) and the checks that span tables. Walls, insertion, events, probes and
+// grids are read in case_parser_scene.cpp; the typed key readers live in
+// case_parser_read.cpp.
+#include "config/case_parser.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "config/case_parser_detail.hpp"
+
+namespace mlcg::config {
+
+using namespace detail;
+
+namespace {
+
+const char* const kAxis[3] = {"x", "y", "z"};
+
+void read_materials(const Table& root, CaseSpec& spec, Names& names) {
+  for (const Table& t : array_of_tables(root, "materials")) {
+    t.allow({"name", "youngs_modulus", "poisson_ratio", "density"});
+    MaterialSpec m;
+    m.name = t.required_string("name", "the material's name, e.g. name = \"glass\"");
+    names.materials.add(t, m.name);
+    m.youngs_modulus = t.required_number("youngs_modulus", "Young's modulus in Pa (> 0)");
+    t.positive("youngs_modulus", m.youngs_modulus, "Pa");
+    m.poisson_ratio = t.required_number("poisson_ratio", "Poisson's ratio in [0, 0.5)");
+    t.check("poisson_ratio", m.poisson_ratio >= 0.0 && m.poisson_ratio < 0.5,
+            num(m.poisson_ratio) + " is outside [0, 0.5)");
+    m.density = t.required_number("density", "the particle density in kg/m^3 (> 0)");
+    t.positive("density", m.density, "kg/m^3");
+    m.loc = t.loc();
+    spec.materials.push_back(m);
+  }
+  if (spec.materials.empty())
+    fail(root.doc(), root.line("materials"), "materials", "no materials; give at least one [[materials]] entry");
+}
+
+void read_contact(const Table& root, CaseSpec& spec) {
+  const auto t = root.table("contact");
+  if (!t) return;
+  t->allow({"normal", "tangential", "rolling", "clamp_normal"});
+  ContactSpec& c = spec.contact;
+  c.normal = t->choice("normal", c.normal, {"hertz"});
+  c.tangential = t->choice("tangential", c.tangential, {"history", "none"});
+  c.rolling = t->choice("rolling", c.rolling, {"none", "cdt"});
+  c.clamp_normal = t->boolean("clamp_normal").value_or(c.clamp_normal);
+}
+
+void read_interactions(const Table& root, CaseSpec& spec, const Names& names) {
+  std::map<std::pair<std::string, std::string>, std::string> seen;  // sorted pair -> "interactions[0], line 5"
+  for (const Table& t : array_of_tables(root, "interactions")) {
+    t.allow({"between", "restitution", "friction", "rolling_friction"});
+    InteractionSpec in;
+    if (!t.has("between")) t.fail_missing("between", "the two materials, e.g. between = [\"glass\", \"steel\"]");
+    const auto between = *t.strings("between", 2);
+    in.a = between[0];
+    in.b = between[1];
+    check_reference(t, "between", in.a, names.materials, "material");
+    check_reference(t, "between", in.b, names.materials, "material");
+    const auto pair = std::minmax(in.a, in.b);
+    const auto [it, fresh] = seen.emplace(std::pair(pair.first, pair.second),
+                                          t.path() + ", line " + std::to_string(t.line("between")));
+    if (!fresh)
+      t.fail("between", "a second interaction between '" + in.a + "' and '" + in.b + "' (also " + it->second +
+                            "); give each pair of materials once");
+    in.restitution = t.required_number("restitution", "the coefficient of restitution in (0, 1]");
+    t.check("restitution", in.restitution > 0.0 && in.restitution <= 1.0, num(in.restitution) + " is outside (0, 1]");
+    in.friction = t.required_number("friction", "the Coulomb friction coefficient (>= 0)");
+    t.non_negative("friction", in.friction, "");
+    in.rolling_friction = t.number("rolling_friction", 0.0);
+    t.non_negative("rolling_friction", in.rolling_friction, "");
+    if (in.rolling_friction > 0.0 && spec.contact.rolling == "none")
+      t.fail("rolling_friction", num(in.rolling_friction) +
+                                     " needs a rolling model, but [contact] rolling = \"none\"; set rolling = \"cdt\" "
+                                     "in [contact] or rolling_friction = 0");
+    in.loc = t.loc();
+    spec.interactions.push_back(in);
+  }
+  if (spec.interactions.empty())
+    fail(root.doc(), root.line("interactions"), "interactions",
+         "no interactions; give an [[interactions]] entry for every pair of materials that can meet");
+}
+
+void read_levels(const Table& root, CaseSpec& spec, Names& names) {
+  const auto tables = array_of_tables(root, "levels");
+  for (size_t i = 0; i < tables.size(); ++i) {
+    const Table& t = tables[i];
+    t.allow({"name", "alpha", "dt", "ranks", "skin"});
+    LevelSpec l;
+    l.name = t.has("name") ? t.required_string("name", "the level's name") : "level" + std::to_string(i);
+    names.levels.add(t, l.name);
+    l.alpha = t.number("alpha", l.alpha);
+    t.check("alpha", l.alpha >= 1.0, num(l.alpha) + " is below 1; the coarse-grain ratio alpha must be >= 1");
+    l.dt = t.required_number("dt", "the time step in s (> 0)");
+    t.positive("dt", l.dt, "s");
+    const int64_t ranks = t.integer("ranks").value_or(l.ranks);
+    t.check("ranks", ranks >= 1 && ranks <= 1'000'000, std::to_string(ranks) + " is not a valid number of MPI "
+                                                             "processes; give ranks >= 1");
+    l.ranks = static_cast<int>(ranks);
+    l.skin = t.number("skin", l.skin);
+    t.non_negative("skin", l.skin, "m (0 = automatic)");
+    l.loc = t.loc();
+    spec.levels.push_back(l);
+  }
+  if (tables.empty()) fail(root.doc(), root.line("levels"), "levels", "no levels; give one [[levels]] entry");
+  // The parsing above is general; running more than one level is not (yet).
+  if (tables.size() > 1)
+    fail(root.doc(), tables[1].line(), "levels",
+         std::to_string(tables.size()) +
+             " [[levels]] entries given, but multi-level cases need the coupler (not yet available); "
+             "give exactly one [[levels]] entry");
+}
+
+void read_domain(const Table& root, CaseSpec& spec) {
+  const auto t = root.table("domain");
+  t->allow({"min", "max"});
+  spec.domain.min = t->required_vec3("min", "the lower corner, e.g. min = [-0.1, -0.1, 0.0] (m)");
+  spec.domain.max = t->required_vec3("max", "the upper corner, e.g. max = [0.1, 0.1, 0.5] (m)");
+  for (int a = 0; a < 3; ++a)
+    t->check("max", spec.domain.max[a] > spec.domain.min[a],
+             std::string("max.") + kAxis[a] + " = " + num(spec.domain.max[a]) + " is not above min." + kAxis[a] +
+                 " = " + num(spec.domain.min[a]) + "; the domain needs min < max in every axis");
+}
+
+void read_output(const Table& root, CaseSpec& spec) {
+  const auto t = root.table("output");
+  if (!t) return;
+  t->allow({"snapshot_interval", "checkpoint_interval", "stats_interval"});
+  OutputSpec& o = spec.output;
+  o.snapshot_interval = t->number("snapshot_interval", o.snapshot_interval);
+  t->non_negative("snapshot_interval", o.snapshot_interval, "s (0 = only the final state)");
+  o.checkpoint_interval = t->number("checkpoint_interval", o.checkpoint_interval);
+  t->non_negative("checkpoint_interval", o.checkpoint_interval, "s (0 = only at the end)");
+  o.stats_interval = t->number("stats_interval", o.stats_interval);
+  t->positive("stats_interval", o.stats_interval, "s");
+}
+
+void read_stability(const Table& root, CaseSpec& spec) {
+  const auto t = root.table("stability");
+  if (!t) return;
+  t->allow({"rayleigh_fraction", "min_steps_per_contact", "max_overlap_fraction", "max_impact_speed",
+            "dt_override_reason"});
+  StabilitySpec& s = spec.stability;
+  auto fraction = [&](const char* k, double& v) {
+    v = t->number(k, v);
+    t->check(k, v > 0.0 && v <= 1.0, num(v) + " is outside (0, 1]");
+  };
+  fraction("rayleigh_fraction", s.rayleigh_fraction);
+  fraction("max_overlap_fraction", s.max_overlap_fraction);
+  s.min_steps_per_contact = t->number("min_steps_per_contact", s.min_steps_per_contact);
+  t->check("min_steps_per_contact", s.min_steps_per_contact >= 1.0,
+           num(s.min_steps_per_contact) + " is below 1; give at least 1 time step per contact");
+  s.max_impact_speed = t->number("max_impact_speed", s.max_impact_speed);
+  t->check("max_impact_speed", s.max_impact_speed != 0.0,
+           "0 is not allowed; give a speed > 0 in m/s, or a negative value to estimate it");
+  s.dt_override_reason = t->string("dt_override_reason").value_or("");
+}
+
+void read_time(const Table& root, CaseSpec& spec, const Names& names) {
+  const auto t = root.table("time");
+  t->allow({"end", "progress_interval"});
+  TimeSpec& tm = spec.time;
+  const toml::node* end = t->node("end");
+  const std::string how = "end = <seconds> or end = { event = \"<event name>\", plus = <seconds> }";
+  if (!end) t->fail_missing("end", how);
+  if (end->is_table()) {
+    const Table e = *t->table("end");
+    e.allow({"event", "plus"}, "end = { ... }");
+    tm.end_event = e.required_string("event", "the name of an [[events]] entry");
+    check_reference(e, "event", tm.end_event, names.events, "event");
+    tm.end_plus = e.number("plus", 0.0);
+    e.non_negative("plus", tm.end_plus, "s");
+  } else if (end->is_number()) {
+    tm.end = *t->number("end");
+    t->positive("end", tm.end, "s");
+  } else {
+    t->fail("end", std::string("expected a number or a table, found ") + type_name(*end) + "; give " + how);
+  }
+  tm.progress_interval = t->number("progress_interval", tm.progress_interval);
+  t->positive("progress_interval", tm.progress_interval, "s of wall time");
+}
+
+// Every pair of materials that can meet needs an [[interactions]] entry: each
+// particle material with itself and with every other particle material, and
+// each wall material with every particle material.
+void check_pairs(const Table& root, const CaseSpec& spec) {
+  auto defined = [&](const std::string& a, const std::string& b) {
+    for (const auto& in : spec.interactions)
+      if ((in.a == a && in.b == b) || (in.a == b && in.b == a)) return true;
+    return false;
+  };
+  auto missing = [](const std::string& a, const std::string& b, const std::string& why) {
+    return "no [[interactions]] entry between '" + a + "' and '" + b + "' (" + why + "); add one with between = [\"" +
+           a + "\", \"" + b + "\"]";
+  };
+  const auto insertions = array_of_tables(root, "insertion");
+  std::vector<std::string> particle;  // particle materials in file order
+  for (size_t i = 0; i < spec.insertions.size(); ++i) {
+    const std::string& p = spec.insertions[i].material;
+    if (std::find(particle.begin(), particle.end(), p) != particle.end()) continue;
+    particle.push_back(p);
+    for (const std::string& q : particle)
+      if (!defined(p, q))
+        insertions[i].fail("material", missing(p, q, "particles of insertion '" + spec.insertions[i].name +
+                                                         "' meet " + (p == q ? "each other" : "'" + q + "' particles")));
+  }
+  const auto explicit_particles = array_of_tables(root, "particles");
+  for (size_t i = 0; i < spec.particles.size(); ++i) {
+    const std::string& p = spec.particles[i].material;
+    if (std::find(particle.begin(), particle.end(), p) != particle.end()) continue;
+    particle.push_back(p);
+    for (const std::string& q : particle)
+      if (!defined(p, q))
+        explicit_particles[i].fail("material", missing(p, q, "particles[" + std::to_string(i) + "] meets " +
+                                                                 (p == q ? "particles of its own material" : "'" + q + "' particles")));
+  }
+  const auto walls = array_of_tables(root, "walls");
+  for (size_t w = 0; w < spec.walls.size(); ++w)
+    for (const std::string& p : particle)
+      if (!defined(spec.walls[w].material, p))
+        walls[w].fail("material",
+                      missing(spec.walls[w].material, p, "wall '" + spec.walls[w].name + "' meets '" + p + "' particles"));
+}
+
+std::string folder_of(const std::string& path) {
+  namespace fs = std::filesystem;
+  fs::path parent = fs::path(path).parent_path();
+  if (parent.empty()) parent = ".";
+  std::string dir = fs::absolute(parent).lexically_normal().string();
+  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+  return dir;
+}
+
+}  // namespace
+
+CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_messages) {
+  const Doc doc{path_for_messages, folder_of(path_for_messages)};
+  toml::table tbl;
+  try {
+    tbl = toml::parse(toml_text, std::string_view(path_for_messages));
+  } catch (const toml::parse_error& e) {
+    fail(doc, static_cast<int>(e.source().begin.line), "TOML syntax error", std::string(e.description()));
+  }
+  const Table root(doc, tbl, "");
+  root.allow({"title", "seed", "gravity", "materials", "interactions", "contact", "levels", "domain", "walls",
+              "insertion", "particles", "events", "probes", "grids", "output", "stability", "time"},
+             "the top level");
+  for (const char* k : {"materials", "interactions", "levels"})
+    if (!root.has(k)) fail(doc, 1, k, "missing required table; add at least one [[" + std::string(k) + "]] entry");
+  for (const char* k : {"domain", "time"})
+    if (!root.has(k)) fail(doc, 1, k, "missing required table; add a [" + std::string(k) + "] table");
+
+  CaseSpec spec;
+  spec.path = path_for_messages;
+  spec.dir = doc.dir;
+  spec.title = root.string("title").value_or("");
+  if (const auto seed = root.integer("seed")) {
+    root.check("seed", *seed >= 0, std::to_string(*seed) + " is negative; give an integer >= 0");
+    spec.seed = static_cast<uint64_t>(*seed);
+  }
+  spec.gravity = root.vec3("gravity").value_or(spec.gravity);
+
+  // Order matters: later tables refer to names and the domain read earlier.
+  Names names;
+  read_materials(root, spec, names);
+  read_contact(root, spec);
+  read_interactions(root, spec, names);
+  read_levels(root, spec, names);
+  read_domain(root, spec);
+  read_walls(root, spec, names);
+  read_insertions(root, spec, names);
+  read_particles(root, spec, names);
+  read_events(root, spec, names);
+  read_probes(root, spec, names);
+  read_grids(root, spec, names);
+  read_output(root, spec);
+  read_stability(root, spec);
+  read_time(root, spec, names);
+  check_pairs(root, spec);
+  return spec;
+}
+
+CaseSpec load_case(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec))
+    throw CaseError(path + ": cannot read the case file (" +
+                    (fs::exists(path, ec) ? std::string("not a regular file") : std::string("no such file")) +
+                    "); give the path of a .toml case file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw CaseError(path + ": cannot read the case file (" + std::strerror(errno) + ")");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_case(text.str(), path);
+}
+
+}  // namespace mlcg::config

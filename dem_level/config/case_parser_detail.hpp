@@ -1,0 +1,131 @@
+#pragma once
+// Internal to the case parser (case_parser*.cpp); no other module includes this.
+// `Table` wraps one TOML table together with its key path ("walls[2]") so every
+// reader and every check can name FILE:LINE: KEY in its message.
+#include <toml++/toml.h>
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "config/case_parser.hpp"
+
+namespace mlcg::config::detail {
+
+struct Doc {
+  std::string file;  // the case file as named in messages
+  std::string dir;   // its folder (absolute); relative files resolve here
+};
+
+// ---- formatting -----------------------------------------------------------
+std::string num(double v);                       // 0.7, 1e-06, inf
+std::string vec(const Vec3& v);                  // [0, 0, 0.3]
+std::string join(const std::vector<std::string>& words, std::string_view sep = ", ");
+// " (did you mean 'x'?)" for the closest option by edit distance, or "".
+std::string did_you_mean(std::string_view word, const std::vector<std::string>& options);
+const char* type_name(const toml::node& n);      // "string", "integer", "float", ...
+int line_of(const toml::node& n);
+
+// Throws CaseError "FILE:LINE: KEY: WHAT" (": KEY" left out when key is empty).
+[[noreturn]] void fail(const Doc& doc, int line, std::string_view key, const std::string& what);
+
+// ---- one table being read -------------------------------------------------
+class Table {
+ public:
+  Table(const Doc& doc, const toml::table& t, std::string path);
+
+  const Doc& doc() const { return *doc_; }
+  const std::string& path() const { return path_; }
+  std::string key(std::string_view k) const;     // path.k
+  int line() const;                                // line of the table itself
+  int line(std::string_view k) const;             // line of k's value; the table's if k is absent
+  SourceLoc loc() const { return {doc_->file, line()}; }
+  bool has(std::string_view k) const { return node(k) != nullptr; }
+  const toml::node* node(std::string_view k) const;
+
+  [[noreturn]] void fail(std::string_view k, const std::string& what) const;  // at k's line
+  [[noreturn]] void fail_table(const std::string& what) const;                // at the table's line
+  [[noreturn]] void fail_missing(std::string_view k, const std::string& expected) const;
+
+  // Refuses any key not in `allowed`, suggesting the closest allowed key.
+  // `kind` names what the list belongs to, e.g. "a cylinder wall".
+  void allow(const std::vector<std::string>& allowed, std::string_view kind = {}) const;
+
+  // Typed readers: absent -> nullopt (or the default); wrong type -> CaseError.
+  // Integers are accepted for numbers; floats are not accepted for integers.
+  std::optional<double> number(std::string_view k, bool allow_inf = false) const;
+  double number(std::string_view k, double def, bool allow_inf = false) const;
+  double required_number(std::string_view k, const std::string& expected) const;
+  std::optional<int64_t> integer(std::string_view k) const;
+  std::optional<bool> boolean(std::string_view k) const;
+  std::optional<std::string> string(std::string_view k) const;
+  std::string required_string(std::string_view k, const std::string& expected) const;
+  // One of `choices`; absent -> def.
+  std::string choice(std::string_view k, const std::string& def, const std::vector<std::string>& choices) const;
+  std::optional<Vec3> vec3(std::string_view k) const;
+  Vec3 required_vec3(std::string_view k, const std::string& expected) const;
+  // An array of numbers; exact_size 0 = any non-empty length.
+  std::optional<std::vector<double>> numbers(std::string_view k, size_t exact_size = 0,
+                                             bool allow_inf = false) const;
+  std::optional<std::vector<std::string>> strings(std::string_view k, size_t exact_size = 0) const;
+  std::optional<Table> table(std::string_view k) const;  // inline { } or [a.b]
+
+  // Value checks at k's line: "V is outside [lo, hi)" and the like.
+  void check(std::string_view k, bool ok, const std::string& what) const {
+    if (!ok) fail(k, what);
+  }
+  void positive(std::string_view k, double v, std::string_view unit) const;      // > 0
+  void non_negative(std::string_view k, double v, std::string_view unit) const;  // >= 0
+
+ private:
+  const Doc* doc_;
+  const toml::table* t_;
+  std::string path_;
+};
+
+// [[key]] at the top level: every element must be a table. Absent -> empty.
+std::vector<Table> array_of_tables(const Table& root, std::string_view k);
+
+// Names that must be unique within one kind ("materials", "walls", ...).
+class UniqueNames {
+ public:
+  explicit UniqueNames(std::string kind) : kind_(std::move(kind)) {}
+  void add(const Table& t, const std::string& name);  // refuses a repeat at t's "name"
+  bool contains(const std::string& name) const { return seen_.count(name) != 0; }
+  const std::vector<std::string>& names() const { return order_; }
+
+ private:
+  std::string kind_;
+  std::map<std::string, std::string> seen_;  // name -> "walls[0], line 12"
+  std::vector<std::string> order_;           // names in file order
+};
+
+// Refuses a reference to a name that is not in `known` (at t's key k).
+void check_reference(const Table& t, std::string_view k, const std::string& name, const UniqueNames& known,
+                     std::string_view what);
+
+// The names each kind of entry has defined so far, for references between tables.
+struct Names {
+  UniqueNames materials{"materials"}, levels{"levels"}, walls{"walls"}, events{"events"}, probes{"probes"},
+      grids{"grids"};
+};
+
+// Table readers of the scene (case_parser_scene.cpp). Each reads one top-level
+// key of `root` into `spec`, checking its values; they run after materials,
+// levels and the domain are known.
+void read_walls(const Table& root, CaseSpec& spec, Names& names);
+void read_insertions(const Table& root, CaseSpec& spec, Names& names);
+void read_particles(const Table& root, CaseSpec& spec, Names& names);
+void read_events(const Table& root, CaseSpec& spec, Names& names);
+void read_probes(const Table& root, CaseSpec& spec, Names& names);
+void read_grids(const Table& root, CaseSpec& spec, Names& names);
+
+// Refuses a box [lo, hi] that reaches outside the domain: below it at t's key
+// k_lo, above it at k_hi (the same key for a region or a point).
+void check_inside_domain(const Table& t, std::string_view k_lo, std::string_view k_hi, const Vec3& lo, const Vec3& hi,
+                         const DomainSpec& d);
+
+}  // namespace mlcg::config::detail

@@ -1,0 +1,304 @@
+// Reading typed keys with their file position, and the shared message helpers
+// of the case parser. The table readers themselves are in case_parser_tables.cpp.
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "config/case_parser_detail.hpp"
+
+namespace mlcg::config::detail {
+
+// ---- formatting -----------------------------------------------------------
+
+std::string num(double v) {
+  std::ostringstream s;
+  s << std::setprecision(12) << v;
+  return s.str();
+}
+
+std::string vec(const Vec3& v) {
+  std::string s = "[";  // built by appending: GCC 12 warns falsely on "[" + std::string
+  s.append(num(v.x)).append(", ").append(num(v.y)).append(", ").append(num(v.z)).append("]");
+  return s;
+}
+
+std::string join(const std::vector<std::string>& words, std::string_view sep) {
+  std::string out;
+  for (size_t i = 0; i < words.size(); ++i) {
+    if (i) out += sep;
+    out += words[i];
+  }
+  return out;
+}
+
+namespace {
+
+// Optimal-string-alignment distance (Levenshtein plus adjacent transpositions),
+// case-insensitive: "opne" is one edit from "open".
+size_t edit_distance(std::string_view a, std::string_view b) {
+  auto eq = [](char x, char y) {
+    return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
+  };
+  std::vector<std::vector<size_t>> d(a.size() + 1, std::vector<size_t>(b.size() + 1));
+  for (size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+  for (size_t i = 1; i <= a.size(); ++i)
+    for (size_t j = 1; j <= b.size(); ++j) {
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (eq(a[i - 1], b[j - 1]) ? 0 : 1)});
+      if (i > 1 && j > 1 && eq(a[i - 1], b[j - 2]) && eq(a[i - 2], b[j - 1]))
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+    }
+  return d[a.size()][b.size()];
+}
+
+}  // namespace
+
+std::string did_you_mean(std::string_view word, const std::vector<std::string>& options) {
+  const size_t limit = word.size() <= 4 ? 1 : (word.size() <= 8 ? 2 : 3);
+  const std::string* best = nullptr;
+  size_t best_d = limit + 1;
+  for (const auto& o : options) {
+    size_t d = edit_distance(word, o);
+    // A clear prefix ("youngs" for "youngs_modulus") counts as close too.
+    if (word.size() >= 4 && (o.rfind(word, 0) == 0 || word.rfind(o, 0) == 0)) d = std::min(d, limit);
+    if (d < best_d) {
+      best_d = d;
+      best = &o;
+    }
+  }
+  return best ? " (did you mean '" + *best + "'?)" : std::string();
+}
+
+const char* type_name(const toml::node& n) {
+  switch (n.type()) {
+    case toml::node_type::table: return "table";
+    case toml::node_type::array: return "array";
+    case toml::node_type::string: return "string";
+    case toml::node_type::integer: return "integer";
+    case toml::node_type::floating_point: return "float";
+    case toml::node_type::boolean: return "boolean";
+    case toml::node_type::date: return "date";
+    case toml::node_type::time: return "time";
+    case toml::node_type::date_time: return "date-time";
+    default: return "nothing";
+  }
+}
+
+int line_of(const toml::node& n) { return static_cast<int>(n.source().begin.line); }
+
+void fail(const Doc& doc, int line, std::string_view key, const std::string& what) {
+  std::string msg = doc.file + ":" + std::to_string(line) + ": ";
+  if (!key.empty()) msg += std::string(key) + ": ";
+  throw CaseError(msg + what);
+}
+
+// ---- one value ------------------------------------------------------------
+
+namespace {
+
+// A number node (integer or float) as double, refusing NaN and (unless allowed) infinity.
+double as_number(const Doc& doc, const toml::node& n, const std::string& key, bool allow_inf) {
+  double v = 0.0;
+  if (auto i = n.as_integer()) v = static_cast<double>(i->get());
+  else if (auto f = n.as_floating_point()) v = f->get();
+  else fail(doc, line_of(n), key, std::string("expected a number, found ") + type_name(n));
+  if (std::isnan(v)) fail(doc, line_of(n), key, "nan is not allowed; give a finite number");
+  if (std::isinf(v) && !allow_inf) fail(doc, line_of(n), key, num(v) + " is not allowed; give a finite number");
+  return v;
+}
+
+std::string as_string(const Doc& doc, const toml::node& n, const std::string& key) {
+  if (auto s = n.as_string()) return s->get();
+  fail(doc, line_of(n), key, std::string("expected a string, found ") + type_name(n));
+}
+
+const toml::array& as_array(const Doc& doc, const toml::node& n, const std::string& key, size_t exact_size,
+                            std::string_view of_what) {
+  const std::string expected =
+      exact_size ? "an array of " + std::to_string(exact_size) + " " + std::string(of_what)
+                 : "an array of " + std::string(of_what);
+  const toml::array* a = n.as_array();
+  if (!a) fail(doc, line_of(n), key, "expected " + expected + ", found " + type_name(n));
+  if (exact_size && a->size() != exact_size)
+    fail(doc, line_of(n), key,
+         "expected " + expected + ", found " + std::to_string(a->size()) + " element" + (a->size() == 1 ? "" : "s"));
+  if (!exact_size && a->empty()) fail(doc, line_of(n), key, "expected " + expected + ", found an empty array");
+  return *a;
+}
+
+}  // namespace
+
+// ---- Table ----------------------------------------------------------------
+
+Table::Table(const Doc& doc, const toml::table& t, std::string path) : doc_(&doc), t_(&t), path_(std::move(path)) {}
+
+std::string Table::key(std::string_view k) const {
+  if (path_.empty()) return std::string(k);
+  return path_ + "." + std::string(k);
+}
+
+int Table::line() const { return std::max(1, line_of(*t_)); }
+
+int Table::line(std::string_view k) const {
+  const toml::node* n = node(k);
+  return n ? line_of(*n) : line();
+}
+
+const toml::node* Table::node(std::string_view k) const { return t_->get(k); }
+
+void Table::fail(std::string_view k, const std::string& what) const { detail::fail(*doc_, line(k), key(k), what); }
+
+void Table::fail_table(const std::string& what) const { detail::fail(*doc_, line(), path_, what); }
+
+void Table::fail_missing(std::string_view k, const std::string& expected) const {
+  detail::fail(*doc_, line(), key(k), "missing required key; give " + expected);
+}
+
+void Table::allow(const std::vector<std::string>& allowed, std::string_view kind) const {
+  // Report the first unknown key in file order (the table itself is sorted by name).
+  const toml::key* first = nullptr;
+  for (auto&& [k, v] : *t_) {
+    (void)v;
+    if (std::find(allowed.begin(), allowed.end(), k.str()) != allowed.end()) continue;
+    if (!first || k.source().begin < first->source().begin) first = &k;
+  }
+  if (!first) return;
+  const std::string where = kind.empty() ? std::string() : " for " + std::string(kind);
+  detail::fail(*doc_, static_cast<int>(first->source().begin.line), key(first->str()),
+               "unknown key" + did_you_mean(first->str(), allowed) + "; allowed keys" + where + ": " + join(allowed));
+}
+
+std::optional<double> Table::number(std::string_view k, bool allow_inf) const {
+  const toml::node* n = node(k);
+  if (!n) return std::nullopt;
+  return as_number(*doc_, *n, key(k), allow_inf);
+}
+
+double Table::number(std::string_view k, double def, bool allow_inf) const {
+  return number(k, allow_inf).value_or(def);
+}
+
+double Table::required_number(std::string_view k, const std::string& expected) const {
+  if (!has(k)) fail_missing(k, expected);
+  return *number(k);
+}
+
+std::optional<int64_t> Table::integer(std::string_view k) const {
+  const toml::node* n = node(k);
+  if (!n) return std::nullopt;
+  if (auto i = n->as_integer()) return i->get();
+  fail(k, std::string("expected an integer, found ") + type_name(*n));
+}
+
+std::optional<bool> Table::boolean(std::string_view k) const {
+  const toml::node* n = node(k);
+  if (!n) return std::nullopt;
+  if (auto b = n->as_boolean()) return b->get();
+  fail(k, std::string("expected a boolean (true or false), found ") + type_name(*n));
+}
+
+std::optional<std::string> Table::string(std::string_view k) const {
+  const toml::node* n = node(k);
+  if (!n) return std::nullopt;
+  return as_string(*doc_, *n, key(k));
+}
+
+std::string Table::required_string(std::string_view k, const std::string& expected) const {
+  if (!has(k)) fail_missing(k, expected);
+  std::string s = *string(k);
+  if (s.empty()) fail(k, "empty string; give " + expected);
+  return s;
+}
+
+std::string Table::choice(std::string_view k, const std::string& def, const std::vector<std::string>& choices) const {
+  const auto s = string(k);
+  if (!s) return def;
+  if (std::find(choices.begin(), choices.end(), *s) == choices.end())
+    fail(k, "'" + *s + "' is not allowed" + did_you_mean(*s, choices) + "; allowed: " + join(choices));
+  return *s;
+}
+
+std::optional<Vec3> Table::vec3(std::string_view k) const {
+  auto v = numbers(k, 3);
+  if (!v) return std::nullopt;
+  return Vec3{(*v)[0], (*v)[1], (*v)[2]};
+}
+
+Vec3 Table::required_vec3(std::string_view k, const std::string& expected) const {
+  if (!has(k)) fail_missing(k, expected);
+  return *vec3(k);
+}
+
+std::optional<std::vector<double>> Table::numbers(std::string_view k, size_t exact_size, bool allow_inf) const {
+  const toml::node* n = node(k);
+  if (!n) return std::nullopt;
+  const toml::array& a = as_array(*doc_, *n, key(k), exact_size, "numbers");
+  std::vector<double> out;
+  for (size_t i = 0; i < a.size(); ++i)
+    out.push_back(as_number(*doc_, *a.get(i), key(k) + "[" + std::to_string(i) + "]", allow_inf));
+  return out;
+}
+
+std::optional<std::vector<std::string>> Table::strings(std::string_view k, size_t exact_size) const {
+  const toml::node* n = node(k);
+  if (!n) return std::nullopt;
+  const toml::array& a = as_array(*doc_, *n, key(k), exact_size, "strings");
+  std::vector<std::string> out;
+  for (size_t i = 0; i < a.size(); ++i) out.push_back(as_string(*doc_, *a.get(i), key(k) + "[" + std::to_string(i) + "]"));
+  return out;
+}
+
+std::optional<Table> Table::table(std::string_view k) const {
+  const toml::node* n = node(k);
+  if (!n) return std::nullopt;
+  if (auto t = n->as_table()) return Table(*doc_, *t, key(k));
+  fail(k, std::string("expected a table, found ") + type_name(*n));
+}
+
+void Table::positive(std::string_view k, double v, std::string_view unit) const {
+  if (!(v > 0.0)) fail(k, num(v) + " is not > 0; give a positive value" + (unit.empty() ? "" : " in " + std::string(unit)));
+}
+
+void Table::non_negative(std::string_view k, double v, std::string_view unit) const {
+  if (!(v >= 0.0)) fail(k, num(v) + " is negative; give a value >= 0" + (unit.empty() ? "" : " in " + std::string(unit)));
+}
+
+std::vector<Table> array_of_tables(const Table& root, std::string_view k) {
+  std::vector<Table> out;
+  const toml::node* n = root.node(k);
+  if (!n) return out;
+  const toml::array* a = n->as_array();
+  if (!a)
+    root.fail(k, std::string("expected an array of tables ([[") + std::string(k) + "]]), found " + type_name(*n));
+  for (size_t i = 0; i < a->size(); ++i) {
+    const toml::node& e = *a->get(i);
+    const std::string path = root.key(k) + "[" + std::to_string(i) + "]";
+    const toml::table* t = e.as_table();
+    if (!t) fail(root.doc(), line_of(e), path, std::string("expected a table, found ") + type_name(e));
+    out.emplace_back(root.doc(), *t, path);
+  }
+  return out;
+}
+
+// ---- names ----------------------------------------------------------------
+
+void UniqueNames::add(const Table& t, const std::string& name) {
+  auto it = seen_.find(name);
+  if (it != seen_.end())
+    t.fail("name", "duplicate name '" + name + "' (also " + it->second + "); every entry of [[" + kind_ +
+                       "]] needs its own name");
+  seen_.emplace(name, t.path() + ", line " + std::to_string(t.line("name")));
+  order_.push_back(name);
+}
+
+void check_reference(const Table& t, std::string_view k, const std::string& name, const UniqueNames& known,
+                     std::string_view what) {
+  if (known.contains(name)) return;
+  const auto names = known.names();
+  t.fail(k, "unknown " + std::string(what) + " '" + name + "'" + did_you_mean(name, names) + "; known: " +
+                (names.empty() ? std::string("none") : join(names)));
+}
+
+}  // namespace mlcg::config::detail

@@ -1,0 +1,403 @@
+// The scene tables of a case file: [[walls]], [[insertion]], [[events]],
+// [[probes]] and [[grids]]. They run after materials, levels and the domain
+// are read, so every reference and extent can be checked where it is written.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <numeric>
+
+#include "config/case_parser_detail.hpp"
+
+namespace mlcg::config::detail {
+
+namespace {
+
+const char* const kAxis[3] = {"x", "y", "z"};
+
+// A direction: a non-zero 3-vector, returned normalised.
+Vec3 direction(const Table& t, std::string_view k, const Vec3& def) {
+  const Vec3 v = t.vec3(k).value_or(def);
+  t.check(k, norm(v) > 0.0 && std::isfinite(norm(v)), vec(v) + " has zero length; give a nonzero direction");
+  return normalized(v);
+}
+
+// min and max of a box: both required, min < max in every axis.
+void read_box(const Table& t, Vec3& lo, Vec3& hi, const std::string& what) {
+  lo = t.required_vec3("min", "the lower corner of " + what + " (m)");
+  hi = t.required_vec3("max", "the upper corner of " + what + " (m)");
+  for (int a = 0; a < 3; ++a)
+    t.check("max", hi[a] > lo[a],
+            std::string("max.") + kAxis[a] + " = " + num(hi[a]) + " is not above min." + kAxis[a] + " = " +
+                num(lo[a]) + "; " + what + " needs min < max in every axis");
+}
+
+// bottom < top along a wall's axis.
+void read_extent(const Table& t, WallSpec& w) {
+  w.bottom = t.required_number("bottom", "the lower end along the axis, measured from center (m)");
+  w.top = t.required_number("top", "the upper end along the axis, measured from center (m)");
+  t.check("top", w.bottom < w.top,
+          "bottom = " + num(w.bottom) + " is not below top = " + num(w.top) + "; the wall needs bottom < top");
+}
+
+void read_rims(const Table& t, WallSpec& w) {
+  const std::string rims = t.choice("rims", "none", {"none", "bottom", "top", "both"});
+  w.rim_bottom = rims == "bottom" || rims == "both";
+  w.rim_top = rims == "top" || rims == "both";
+}
+
+}  // namespace
+
+void check_inside_domain(const Table& t, std::string_view k_lo, std::string_view k_hi, const Vec3& lo, const Vec3& hi,
+                         const DomainSpec& d) {
+  for (int a = 0; a < 3; ++a) {
+    if (lo[a] >= d.min[a] && hi[a] <= d.max[a]) continue;
+    const std::string_view k = lo[a] < d.min[a] ? k_lo : k_hi;
+    const std::string range = "domain " + std::string(kAxis[a]) + " from " + num(d.min[a]) + " to " + num(d.max[a]);
+    if (lo == hi)
+      t.fail(k, std::string(kAxis[a]) + " = " + num(lo[a]) + " is outside the domain (" + range +
+                    "); keep it inside [domain]");
+    t.fail(k, "reaches outside the domain in " + std::string(kAxis[a]) + " (" + num(lo[a]) + " to " + num(hi[a]) +
+                  ", " + range + "); keep it inside [domain]");
+  }
+}
+
+// ---- [[walls]] --------------------------------------------------------------
+
+void read_walls(const Table& root, CaseSpec& spec, Names& names) {
+  const std::vector<std::string> types{"plane", "cylinder", "cone", "disk", "mesh"};
+  for (const Table& t : array_of_tables(root, "walls")) {
+    WallSpec w;
+    if (!t.has("type")) t.fail_missing("type", "the wall's type, one of " + join(types));
+    const std::string type = t.choice("type", "", types);
+    w.type = static_cast<WallType>(std::find(types.begin(), types.end(), type) - types.begin());
+    std::vector<std::string> keys{"name", "type", "material"};
+    switch (w.type) {
+      case WallType::Plane: keys.insert(keys.end(), {"point", "normal"}); break;
+      case WallType::Cylinder: keys.insert(keys.end(), {"center", "axis", "radius", "bottom", "top", "rims"}); break;
+      case WallType::Cone:
+        keys.insert(keys.end(), {"center", "axis", "radius_bottom", "radius_top", "bottom", "top", "rims"});
+        break;
+      case WallType::Disk: keys.insert(keys.end(), {"center", "axis", "radius"}); break;
+      case WallType::Mesh: keys.insert(keys.end(), {"file", "scale", "offset"}); break;
+    }
+    t.allow(keys, "a " + type + " wall");
+    w.name = t.required_string("name", "the wall's name, e.g. name = \"silo\"");
+    names.walls.add(t, w.name);
+    w.material = t.required_string("material", "the name of a [[materials]] entry");
+    check_reference(t, "material", w.material, names.materials, "material");
+
+    switch (w.type) {
+      case WallType::Plane:
+        w.point = t.vec3("point").value_or(w.point);
+        w.normal = direction(t, "normal", w.normal);
+        break;
+      case WallType::Cylinder:
+      case WallType::Disk:
+        w.center = t.vec3("center").value_or(w.center);
+        w.axis = direction(t, "axis", w.axis);
+        w.radius = t.required_number("radius", "the radius in m (> 0)");
+        t.positive("radius", w.radius, "m");
+        if (w.type == WallType::Cylinder) {
+          read_extent(t, w);
+          read_rims(t, w);
+        }
+        break;
+      case WallType::Cone:
+        w.center = t.vec3("center").value_or(w.center);
+        w.axis = direction(t, "axis", w.axis);
+        w.radius_bottom = t.required_number("radius_bottom", "the radius at bottom in m (>= 0)");
+        t.non_negative("radius_bottom", w.radius_bottom, "m");
+        w.radius_top = t.required_number("radius_top", "the radius at top in m (>= 0)");
+        t.non_negative("radius_top", w.radius_top, "m");
+        t.check("radius_top", w.radius_bottom > 0.0 || w.radius_top > 0.0,
+                "both radii are 0; at least one of radius_bottom, radius_top must be > 0");
+        read_extent(t, w);
+        read_rims(t, w);
+        break;
+      case WallType::Mesh: {
+        namespace fs = std::filesystem;
+        const std::string file = t.required_string("file", "the STL file, relative to the case file's folder");
+        fs::path p(file);
+        if (p.is_relative()) p = fs::path(spec.dir) / p;
+        p = p.lexically_normal();
+        std::error_code ec;
+        if (!fs::is_regular_file(p, ec))
+          t.fail("file", "file not found: " + p.string() + "; give an STL file (a relative path resolves against "
+                                                          "the case file's folder " + spec.dir + ")");
+        w.file = p.string();
+        w.scale = t.number("scale", w.scale);
+        t.positive("scale", w.scale, "");
+        w.offset = t.vec3("offset").value_or(w.offset);
+        break;
+      }
+    }
+    w.loc = t.loc();
+    spec.walls.push_back(w);
+  }
+}
+
+// ---- [[insertion]] ----------------------------------------------------------
+
+namespace {
+
+RegionSpec read_region(const Table& ins, const DomainSpec& domain) {
+  const std::string how = "region = { type = \"box\", min = [...], max = [...] } or "
+                          "region = { type = \"cylinder\", center = [x, y], radius = r, zmin = z0, zmax = z1 }";
+  if (!ins.has("region")) ins.fail_missing("region", how);
+  const Table t = *ins.table("region");
+  RegionSpec r;
+  const std::string type = t.choice("type", "box", {"box", "cylinder"});
+  if (type == "box") {
+    t.allow({"type", "min", "max"}, "a box region");
+    read_box(t, r.min, r.max, "the region");
+  } else {
+    t.allow({"type", "center", "radius", "zmin", "zmax"}, "a cylinder region");
+    r.type = RegionType::Cylinder;
+    if (!t.has("center")) t.fail_missing("center", "the axis position [x, y] (m)");
+    const auto c = *t.numbers("center", 2);
+    r.cx = c[0];
+    r.cy = c[1];
+    r.radius = t.required_number("radius", "the radius in m (> 0)");
+    t.positive("radius", r.radius, "m");
+    const double zmin = t.required_number("zmin", "the lower end in m");
+    const double zmax = t.required_number("zmax", "the upper end in m");
+    t.check("zmax", zmin < zmax, "zmin = " + num(zmin) + " is not below zmax = " + num(zmax) + "; need zmin < zmax");
+    r.min = {r.cx - r.radius, r.cy - r.radius, zmin};
+    r.max = {r.cx + r.radius, r.cy + r.radius, zmax};
+  }
+  check_inside_domain(ins, "region", "region", r.min, r.max, domain);
+  return r;
+}
+
+RadiusSpec read_radius(const Table& ins) {
+  const std::string how = "radius = <m>, radius = { uniform = [min, max] } or "
+                          "radius = { values = [...], fractions = [...] }";
+  RadiusSpec r;
+  const toml::node* n = ins.node("radius");
+  if (!n) ins.fail_missing("radius", how);
+  if (n->is_number()) {
+    r.value = *ins.number("radius");
+    ins.positive("radius", r.value, "m");
+    return r;
+  }
+  if (!n->is_table()) ins.fail("radius", std::string("expected a number or a table, found ") + type_name(*n) + "; give " + how);
+  const Table t = *ins.table("radius");
+  t.allow({"uniform", "values", "fractions"}, "a radius distribution");
+  const bool uniform = t.has("uniform"), values = t.has("values");
+  if (uniform == values)
+    t.fail_table(uniform ? "both uniform and values given; give one of them" : "neither uniform nor values given; give " + how);
+  if (uniform) {
+    t.check("fractions", !t.has("fractions"), "fractions go with values, not with uniform; remove it");
+    const auto mm = *t.numbers("uniform", 2);
+    r.kind = RadiusKind::Uniform;
+    r.min = mm[0];
+    r.max = mm[1];
+    t.check("uniform", r.min > 0.0, "min = " + num(r.min) + " is not > 0; radii are positive (m)");
+    t.check("uniform", r.min < r.max,
+            "min = " + num(r.min) + " >= max = " + num(r.max) + "; need 0 < min < max (m)");
+    return r;
+  }
+  r.kind = RadiusKind::Discrete;
+  r.values = *t.numbers("values");
+  for (size_t i = 0; i < r.values.size(); ++i)
+    t.check("values", r.values[i] > 0.0, "value " + num(r.values[i]) + " is not > 0; radii are positive (m)");
+  if (!t.has("fractions")) t.fail_missing("fractions", "the number fraction of each value, summing to 1");
+  r.fractions = *t.numbers("fractions", r.values.size());
+  for (double f : r.fractions)
+    t.check("fractions", f >= 0.0, "fraction " + num(f) + " is negative; fractions are >= 0");
+  const double sum = std::accumulate(r.fractions.begin(), r.fractions.end(), 0.0);
+  t.check("fractions", std::abs(sum - 1.0) <= 1e-9,
+          "fractions sum to " + num(sum) + ", not 1; fractions (by number) must sum to 1 within 1e-9");
+  return r;
+}
+
+}  // namespace
+
+void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
+  const auto tables = array_of_tables(root, "insertion");
+  UniqueNames insertions("insertion");
+  for (size_t i = 0; i < tables.size(); ++i) {
+    const Table& t = tables[i];
+    t.allow({"name", "material", "region", "radius", "count", "mass", "rate", "mass_rate", "start", "interval",
+             "velocity", "follow_gap", "follow_height", "max_attempts"});
+    InsertionSpec s;
+    s.name = t.has("name") ? t.required_string("name", "the insertion's name") : "insertion" + std::to_string(i);
+    insertions.add(t, s.name);
+    s.material = t.required_string("material", "the name of a [[materials]] entry");
+    check_reference(t, "material", s.material, names.materials, "material");
+    s.region = read_region(t, spec.domain);
+    s.radius = read_radius(t);
+
+    const auto count = t.integer("count");
+    const auto mass = t.number("mass");
+    if (count && mass) t.fail("mass", "both count and mass given; give exactly one of them");
+    if (!count && !mass)
+      t.fail_table("neither count nor mass given; give exactly one: count (particles) or mass (kg)");
+    if (count) {
+      t.check("count", *count >= 1, std::to_string(*count) + " is not >= 1; give the number of particles to insert");
+      s.count = *count;
+    } else {
+      t.positive("mass", *mass, "kg");
+      s.mass = *mass;
+    }
+    const auto rate = t.number("rate");
+    const auto mass_rate = t.number("mass_rate");
+    if (rate && mass_rate) t.fail("mass_rate", "both rate and mass_rate given; give at most one of them");
+    if (rate) {
+      t.positive("rate", *rate, "particles/s");
+      s.rate = *rate;
+    }
+    if (mass_rate) {
+      t.positive("mass_rate", *mass_rate, "kg/s");
+      s.mass_rate = *mass_rate;
+    }
+    s.start = t.number("start", s.start);
+    t.non_negative("start", s.start, "s");
+    s.interval = t.number("interval", s.interval);
+    t.non_negative("interval", s.interval, "s (0 = automatic)");
+    s.velocity = t.vec3("velocity").value_or(s.velocity);
+    if (const auto gap = t.number("follow_gap")) {
+      t.non_negative("follow_gap", *gap, "m");
+      s.follow_gap = *gap;
+    }
+    if (const auto h = t.number("follow_height")) {
+      t.positive("follow_height", *h, "m");
+      t.check("follow_height", s.follow_gap >= 0.0, "follow_height needs follow_gap (the slab follows the heap)");
+      s.follow_height = *h;
+    }
+    const int64_t attempts = t.integer("max_attempts").value_or(s.max_attempts);
+    t.check("max_attempts", attempts >= 1 && attempts <= 1'000'000'000,
+            std::to_string(attempts) + " is not a valid number of attempts; give an integer >= 1");
+    s.max_attempts = static_cast<int>(attempts);
+    s.loc = t.loc();
+    spec.insertions.push_back(s);
+  }
+}
+
+// ---- [[events]] -------------------------------------------------------------
+
+void read_events(const Table& root, CaseSpec& spec, Names& names) {
+  for (const Table& t : array_of_tables(root, "events")) {
+    t.allow({"name", "at", "after_insertion", "mean_speed_below", "check_interval", "latest", "remove_walls"});
+    EventSpec e;
+    e.name = t.required_string("name", "the event's name, e.g. name = \"open\"");
+    names.events.add(t, e.name);
+    const auto at = t.number("at");
+    e.after_insertion = t.boolean("after_insertion").value_or(false);
+    const auto speed = t.number("mean_speed_below");
+    const bool condition = e.after_insertion || speed.has_value();
+    if (!at && !condition)
+      t.fail_table("neither at nor a condition given; give at = <s>, or after_insertion = true and/or "
+                   "mean_speed_below = <m/s>");
+    if (at && condition)
+      t.fail("at", "both at and a condition (after_insertion / mean_speed_below) given; give one of them");
+    if (at) {
+      t.non_negative("at", *at, "s");
+      e.at = *at;
+    }
+    if (speed) {
+      t.positive("mean_speed_below", *speed, "m/s");
+      e.mean_speed_below = *speed;
+    }
+    e.check_interval = t.number("check_interval", e.check_interval);
+    t.positive("check_interval", e.check_interval, "s");
+    if (const auto latest = t.number("latest", true)) {
+      t.check("latest", condition, "latest only applies to a condition, not to at; remove it");
+      t.non_negative("latest", *latest, "s");
+      e.latest = *latest;
+    }
+    if (t.has("remove_walls")) {
+      e.remove_walls = *t.strings("remove_walls");
+      for (const auto& w : e.remove_walls) check_reference(t, "remove_walls", w, names.walls, "wall");
+    }
+    e.loc = t.loc();
+    spec.events.push_back(e);
+  }
+}
+
+// ---- [[probes]] -------------------------------------------------------------
+
+void read_probes(const Table& root, CaseSpec& spec, Names& names) {
+  for (const Table& t : array_of_tables(root, "probes")) {
+    t.allow({"name", "point", "normal", "radius", "sample_rate", "window", "window_relative_to"});
+    ProbeSpec p;
+    p.name = t.required_string("name", "the probe's name, e.g. name = \"orifice\"");
+    names.probes.add(t, p.name);
+    p.point = t.required_vec3("point", "the centre of the probe disk (m), inside the domain");
+    check_inside_domain(t, "point", "point", p.point, p.point, spec.domain);
+    p.normal = direction(t, "normal", p.normal);
+    p.radius = t.required_number("radius", "the probe disk's radius in m (> 0)");
+    t.positive("radius", p.radius, "m");
+    p.sample_rate = t.number("sample_rate", p.sample_rate);
+    t.positive("sample_rate", p.sample_rate, "Hz");
+    if (const auto w = t.numbers("window", 2, true)) {
+      p.window_start = (*w)[0];
+      p.window_end = (*w)[1];
+      t.check("window", std::isfinite(p.window_start) && p.window_start >= 0.0,
+              "start " + num(p.window_start) + " is not a time >= 0; give window = [t0, t1] with 0 <= t0 < t1 (s)");
+      t.check("window", p.window_start < p.window_end,
+              "start " + num(p.window_start) + " is not before end " + num(p.window_end) +
+                  "; give window = [t0, t1] with 0 <= t0 < t1 (s)");
+    }
+    if (const auto ev = t.string("window_relative_to")) {
+      p.window_event = *ev;
+      check_reference(t, "window_relative_to", p.window_event, names.events, "event");
+    }
+    p.loc = t.loc();
+    spec.probes.push_back(p);
+  }
+}
+
+// ---- [[grids]] --------------------------------------------------------------
+
+void read_grids(const Table& root, CaseSpec& spec, Names& names) {
+  for (const Table& t : array_of_tables(root, "grids")) {
+    t.allow({"name", "min", "max", "cell_size", "sample_interval", "output_interval"});
+    GridSpec g;
+    g.name = t.required_string("name", "the grid's name, e.g. name = \"bed\"");
+    names.grids.add(t, g.name);
+    read_box(t, g.min, g.max, "the grid box");
+    check_inside_domain(t, "min", "max", g.min, g.max, spec.domain);
+    g.cell_size = t.required_number("cell_size", "the cubic cell's edge in m (> 0)");
+    t.positive("cell_size", g.cell_size, "m");
+    for (int a = 0; a < 3; ++a) {
+      const double extent = g.max[a] - g.min[a];
+      t.check("cell_size", g.cell_size <= extent,
+              num(g.cell_size) + " is larger than the box (" + num(extent) + " in " + kAxis[a] +
+                  "); give a cell_size no larger than the box's smallest extent");
+    }
+    g.output_interval = t.required_number("output_interval", "how often averages are written, in s (> 0)");
+    t.positive("output_interval", g.output_interval, "s");
+    g.sample_interval = t.number("sample_interval", g.sample_interval);
+    t.non_negative("sample_interval", g.sample_interval, "s (0 = every output_interval)");
+    t.check("sample_interval", g.sample_interval <= g.output_interval,
+            num(g.sample_interval) + " is longer than output_interval = " + num(g.output_interval) +
+                "; sample at least once per output interval");
+    g.loc = t.loc();
+    spec.grids.push_back(g);
+  }
+}
+
+}  // namespace mlcg::config::detail
+
+namespace mlcg::config::detail {
+
+// ---- [[particles]] -----------------------------------------------------------
+void read_particles(const Table& root, CaseSpec& spec, Names& names) {
+  for (const Table& t : array_of_tables(root, "particles")) {
+    t.allow({"material", "radius", "position", "velocity", "omega"}, "a particle");
+    ParticleSpec p;
+    p.material = t.required_string("material", "the name of a [[materials]] entry");
+    check_reference(t, "material", p.material, names.materials, "material");
+    p.radius = t.required_number("radius", "the particle radius in m (> 0)");
+    t.positive("radius", p.radius, "m");
+    p.position = t.required_vec3("position", "the particle centre [x, y, z] in m, inside the domain");
+    check_inside_domain(t, "position", "position", p.position, p.position, spec.domain);
+    p.velocity = t.vec3("velocity").value_or(Vec3{});
+    p.omega = t.vec3("omega").value_or(Vec3{});
+    p.loc = t.loc();
+    spec.particles.push_back(p);
+  }
+}
+
+}  // namespace mlcg::config::detail

@@ -1,0 +1,133 @@
+#pragma once
+// Particle-wall forces over each particle's wall candidates. A wall has
+// R = m = infinity, so R* = r and m* = m. Analytic walls give at most one
+// contact each; a mesh gives one per local minimum of the distance (see
+// TriangleMesh::contacts), so a sphere rolling over a flat triangulated floor
+// feels one contact, and its tangential history follows it from triangle to
+// triangle.
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "contact/model.hpp"
+#include "core/material.hpp"
+#include "core/particles.hpp"
+#include "forces/contact_stats.hpp"
+#include "walls/wall_set.hpp"
+
+namespace mlcg {
+
+namespace detail {
+
+template <class Model, bool Stress>
+inline void wall_contact(size_t i, const Particles& p, const Vec3& point, const Vec3& n, double dist,
+                         const PairCoeffs& c, double dt, Vec3& hist, Vec3& fi, Vec3& ti, Vec3& wall_force,
+                         double* stress6, ContactStats& st) {
+  const double ri = p.radius[i];
+  ContactInput in;
+  in.n = n;
+  in.delta = ri - dist;
+  in.r_eff = ri;
+  in.m_eff = p.mass[i];
+  in.v_rel = p.v[i] - ri * cross(p.omega[i], n);
+  if constexpr (Model::has_rolling) in.w_rel = p.omega[i];
+  const ContactForce cf = Model::eval(c, dt, in, hist);
+  fi += cf.force;
+  ti -= ri * cross(n, cf.ft);
+  if constexpr (Model::has_rolling) ti += cf.roll;
+  wall_force -= cf.force;
+  const double ratio = in.delta / ri;
+  if (ratio > st.max_overlap_ratio) {
+    st.max_overlap_ratio = ratio;
+    st.worst_particle = static_cast<int32_t>(i);
+  }
+  ++st.wall_contacts;
+  if constexpr (Stress) add_dyad(stress6 + 6 * i, p.x[i] - point, cf.force);
+}
+
+}  // namespace detail
+
+// wall_force: one entry per wall, receives the total force the particles exert on it.
+template <class Model, bool Stress>
+void wall_forces(Particles& p, WallSet& ws, const MaterialTable& mt, double dt, double* stress6,
+                 std::vector<Vec3>& wall_force, ContactStats& st) {
+  constexpr int kMaxMeshContacts = 16;
+  wall_force.assign(ws.walls(), Vec3{});
+  const size_t n = p.n_local();
+  const int32_t n_analytic = ws.analytic_count();
+  Vec3 dummy{};
+  static thread_local std::vector<int32_t> tris;
+  TriangleMesh::Contact mc[kMaxMeshContacts];
+
+  for (size_t i = 0; i < n; ++i) {
+    const int32_t begin = ws.first[i], end = ws.first[i + 1];
+    if (begin == end) continue;
+    const Vec3 xi = p.x[i];
+    const double ri = p.radius[i];
+    const int mi = p.material[i];
+    Vec3 fi{}, ti{};
+    for (int32_t k = begin; k < end; ++k) {
+      const int32_t prim = ws.prim[static_cast<size_t>(k)];
+      Vec3& h = Model::has_history ? ws.hist[static_cast<size_t>(k)] : dummy;
+      if (prim < n_analytic) {
+        const int w = ws.wall_of_prim(prim);
+        WallGeom g;
+        if (!ws.active(static_cast<size_t>(w)) || !ws.analytic(prim).closest(xi, g) || g.dist >= ri) {
+          h = Vec3{};
+          continue;
+        }
+        detail::wall_contact<Model, Stress>(i, p, g.point, g.n, g.dist,
+                                            mt.pair(mi, ws.info(static_cast<size_t>(w)).material), dt, h, fi,
+                                            ti, wall_force[static_cast<size_t>(w)], stress6, st);
+        continue;
+      }
+      // A mesh: its candidate triangles for this particle are contiguous.
+      const int w = ws.wall_of_prim(prim);
+      const auto& info = ws.info(static_cast<size_t>(w));
+      int32_t stop = k;
+      tris.clear();
+      while (stop < end && ws.prim[static_cast<size_t>(stop)] >= info.prim_begin &&
+             ws.prim[static_cast<size_t>(stop)] < info.prim_end) {
+        tris.push_back(ws.prim[static_cast<size_t>(stop)] - info.prim_begin);
+        ++stop;
+      }
+      const int nc = info.active ? ws.mesh(info.mesh).contacts(xi, ri, tris.data(), static_cast<int>(tris.size()),
+                                                               mc, kMaxMeshContacts)
+                                 : 0;
+      if constexpr (Model::has_history) {
+        // Keep each contact's overlap in its owner's slot; a contact whose owner
+        // slot is empty inherits a slot that lost its contact (the particle moved
+        // on to a neighbouring triangle or feature).
+        bool owner[kMaxMeshContacts * 4] = {};
+        const int span = std::min<int>(stop - k, kMaxMeshContacts * 4);
+        for (int c = 0; c < nc; ++c)
+          if (mc[c].owner < span) owner[mc[c].owner] = true;
+        for (int c = 0; c < nc; ++c) {
+          Vec3& slot = ws.hist[static_cast<size_t>(k + mc[c].owner)];
+          if (!(slot == Vec3{})) continue;
+          for (int s = 0; s < span; ++s) {
+            Vec3& other = ws.hist[static_cast<size_t>(k + s)];
+            if (!owner[s] && !(other == Vec3{})) {
+              slot = other;
+              other = Vec3{};
+              break;
+            }
+          }
+        }
+        for (int s = 0; s < stop - k; ++s)
+          if (s >= span || !owner[s]) ws.hist[static_cast<size_t>(k + s)] = Vec3{};
+      }
+      const PairCoeffs& c = mt.pair(mi, info.material);
+      for (int q = 0; q < nc; ++q) {
+        Vec3& hq = Model::has_history ? ws.hist[static_cast<size_t>(k + mc[q].owner)] : dummy;
+        detail::wall_contact<Model, Stress>(i, p, mc[q].point, mc[q].normal, mc[q].dist, c, dt, hq, fi, ti,
+                                            wall_force[static_cast<size_t>(w)], stress6, st);
+      }
+      k = stop - 1;
+    }
+    p.f[i] += fi;
+    p.torque[i] += ti;
+  }
+}
+
+}  // namespace mlcg

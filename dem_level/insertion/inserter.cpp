@@ -1,0 +1,196 @@
+#include "insertion/inserter.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <unordered_map>
+
+namespace mlcg {
+
+namespace {
+
+// Hash grid over the particles that may touch the region, for the overlap test.
+class OverlapGrid {
+ public:
+  OverlapGrid(double h) : h_(h), inv_(1.0 / h) {}
+  void add(const Vec3& x, double r) {
+    pts_.push_back({x, r});
+    map_[key(x)].push_back(static_cast<int32_t>(pts_.size() - 1));
+  }
+  bool overlaps(const Vec3& x, double r) const {
+    const int64_t ix = cell(x.x), iy = cell(x.y), iz = cell(x.z);
+    for (int64_t dz = -1; dz <= 1; ++dz)
+      for (int64_t dy = -1; dy <= 1; ++dy)
+        for (int64_t dx = -1; dx <= 1; ++dx) {
+          const auto it = map_.find(pack(ix + dx, iy + dy, iz + dz));
+          if (it == map_.end()) continue;
+          for (int32_t k : it->second) {
+            const auto& q = pts_[static_cast<size_t>(k)];
+            const double s = r + q.r;
+            if (norm2(x - q.x) < s * s) return true;
+          }
+        }
+    return false;
+  }
+
+ private:
+  struct P { Vec3 x; double r; };
+  int64_t cell(double c) const { return static_cast<int64_t>(std::floor(c * inv_)); }
+  static int64_t pack(int64_t a, int64_t b, int64_t c) {
+    return ((a & 0x1FFFFF) << 42) | ((b & 0x1FFFFF) << 21) | (c & 0x1FFFFF);
+  }
+  int64_t key(const Vec3& x) const { return pack(cell(x.x), cell(x.y), cell(x.z)); }
+  double h_, inv_;
+  std::vector<P> pts_;
+  std::unordered_map<int64_t, std::vector<int32_t>> map_;
+};
+
+bool touches_wall(const WallSet& walls, const Vec3& x, double r, std::vector<int32_t>& scratch) {
+  WallGeom g;
+  for (int32_t a = 0; a < walls.analytic_count(); ++a) {
+    if (!walls.active(static_cast<size_t>(walls.wall_of_prim(a)))) continue;
+    if (walls.analytic(a).closest(x, g) && g.dist < r) return true;
+  }
+  for (size_t w = 0; w < walls.walls(); ++w) {
+    const auto& in = walls.info(w);
+    if (!in.is_mesh || !in.active) continue;
+    scratch.clear();
+    walls.mesh(in.mesh).query(x, r, scratch);
+    if (!scratch.empty()) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+double Inserter::particle_mass(double r) const {
+  return prm_.density * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+}
+
+double Inserter::draw_radius(std::mt19937_64& rng) const {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  switch (prm_.dist) {
+    case InsertionParams::Dist::Constant: return prm_.r_const;
+    case InsertionParams::Dist::Uniform: return prm_.r_min + (prm_.r_max - prm_.r_min) * u(rng);
+    case InsertionParams::Dist::Discrete: {
+      const double q = u(rng);
+      for (size_t k = 0; k < prm_.values.size(); ++k)
+        if (q < prm_.cumulative[k]) return prm_.values[k];
+      return prm_.values.back();
+    }
+  }
+  return prm_.r_const;
+}
+
+int64_t Inserter::run_batch(Particles& p, const WallSet& walls, std::mt19937_64& rng, int64_t& next_id,
+                            double g_mag) {
+  // How many particles this batch asks for: the rate's share up to the batch end, plus carried ones.
+  int64_t due_total = prm_.target;
+  if (prm_.rate > 0.0)
+    due_total = std::min<int64_t>(
+        prm_.target, static_cast<int64_t>(std::floor(prm_.rate * prm_.interval * static_cast<double>(st_.batch + 1))));
+  const int64_t fresh = std::max<int64_t>(0, due_total - st_.requested);
+  st_.requested += fresh;
+  int64_t want = st_.pending + fresh;
+  ++st_.batch;
+
+  Vec3 lo = prm_.lo, hi = prm_.hi;
+  const double rmax_ins = prm_.dist == InsertionParams::Dist::Constant ? prm_.r_const : prm_.r_max;
+  double rmax_all = rmax_ins;
+  for (size_t i = 0; i < p.n_local(); ++i) rmax_all = std::max(rmax_all, p.radius[i]);
+
+  auto in_footprint = [&](const Vec3& x, double margin) {
+    if (prm_.cylinder) {
+      const double dx = x.x - prm_.cx, dy = x.y - prm_.cy;
+      const double R = prm_.cyl_radius + margin;
+      return dx * dx + dy * dy <= R * R;
+    }
+    return x.x >= lo.x - margin && x.x <= hi.x + margin && x.y >= lo.y - margin && x.y <= hi.y + margin;
+  };
+
+  if (prm_.follow_gap >= 0.0) {
+    // Lower the region to just above the resting heap under it (falling particles excluded).
+    const double slow = 0.5 * std::max(norm(prm_.velocity), std::sqrt(2.0 * g_mag * std::max(prm_.follow_gap, 1e-3)));
+    double heap = -std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < p.n_local(); ++i)
+      if (in_footprint(p.x[i], 0.0) && norm2(p.v[i]) < slow * slow) heap = std::max(heap, p.x[i].z + p.radius[i]);
+    // The region is the envelope; each batch uses a slab of it just above the heap.
+    lo.z = std::isfinite(heap) ? std::max(prm_.lo.z, heap + prm_.follow_gap) : prm_.lo.z;
+    hi.z = std::min(prm_.hi.z, lo.z + prm_.follow_height);
+    lo.z = std::min(lo.z, std::max(prm_.lo.z, hi.z - prm_.follow_height));
+  }
+
+  OverlapGrid grid(2.0 * rmax_all);
+  for (size_t i = 0; i < p.n_local(); ++i) {
+    const Vec3& x = p.x[i];
+    if (x.z < lo.z - 2 * rmax_all || x.z > hi.z + 2 * rmax_all) continue;
+    if (!in_footprint(x, 2 * rmax_all)) continue;
+    grid.add(x, p.radius[i]);
+  }
+
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<int32_t> scratch;
+  int64_t placed = 0;
+  int64_t unplaced = 0;
+  for (int64_t k = 0; k < want; ++k) {
+    const double r = draw_radius(rng);
+    bool ok = false;
+    Vec3 x;
+    for (int a = 0; a < prm_.max_attempts && !ok; ++a) {
+      if (prm_.cylinder) {
+        const double R = prm_.cyl_radius - r;
+        if (R < 0.0) break;
+        const double rr = R * std::sqrt(u(rng)), th = 2.0 * std::numbers::pi * u(rng);
+        x = {prm_.cx + rr * std::cos(th), prm_.cy + rr * std::sin(th), lo.z + r + (hi.z - lo.z - 2 * r) * u(rng)};
+      } else {
+        x = {lo.x + r + (hi.x - lo.x - 2 * r) * u(rng), lo.y + r + (hi.y - lo.y - 2 * r) * u(rng),
+             lo.z + r + (hi.z - lo.z - 2 * r) * u(rng)};
+      }
+      ok = !grid.overlaps(x, r) && !touches_wall(walls, x, r, scratch);
+    }
+    if (!ok) {
+      ++unplaced;
+      continue;
+    }
+    grid.add(x, r);
+    ParticleInit pi;
+    pi.id = next_id++;
+    pi.material = prm_.material;
+    pi.radius = r;
+    pi.density = prm_.density;
+    pi.x = x;
+    pi.v = prm_.velocity;
+    p.add(pi);
+    st_.placed_mass += particle_mass(r);
+    ++placed;
+  }
+  st_.placed += placed;
+  st_.pending = unplaced;
+  st_.stalled = (placed == 0 && unplaced > 0) ? st_.stalled + 1 : 0;
+  if (st_.stalled >= prm_.max_stalled_batches) finish();
+  if (st_.requested >= prm_.target && st_.pending == 0) st_.done = true;
+  return placed;
+}
+
+void Inserter::finish() {
+  const int64_t lost = st_.pending + (prm_.target - st_.requested);
+  st_.failed += lost;
+  st_.requested = prm_.target;
+  const double r_typ = prm_.dist == InsertionParams::Dist::Constant ? prm_.r_const : 0.5 * (prm_.r_min + prm_.r_max);
+  st_.failed_mass_estimate += static_cast<double>(lost) * particle_mass(r_typ);
+  st_.pending = 0;
+  st_.done = true;
+}
+
+}  // namespace mlcg
+
+namespace mlcg {
+void Inserter::abandon_pending() {
+  if (st_.pending == 0) return;
+  const double r_typ = prm_.dist == InsertionParams::Dist::Constant ? prm_.r_const : 0.5 * (prm_.r_min + prm_.r_max);
+  st_.failed += st_.pending;
+  st_.failed_mass_estimate += static_cast<double>(st_.pending) * particle_mass(r_typ);
+  st_.pending = 0;
+}
+}  // namespace mlcg

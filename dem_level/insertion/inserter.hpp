@@ -1,0 +1,72 @@
+#pragma once
+// Pouring particles into a region by simple sequential inhibition (SSI):
+// candidates are drawn uniformly in the region and rejected while they overlap
+// a particle (already present or placed in this batch) or a wall. Particles are
+// requested at a rate, in batches; a particle that cannot be placed in its
+// batch is carried to the next one, and only counted as failed when the
+// insertion stops making progress or ends. Nothing is dropped uncounted:
+//   requested = placed + pending + failed.
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/particles.hpp"
+#include "walls/wall_set.hpp"
+
+namespace mlcg {
+
+struct InsertionParams {
+  std::string name;
+  int material = 0;
+  double density = 0.0;
+  bool cylinder = false;   // region: box [lo, hi], or cylinder (cx, cy, radius) x [lo.z, hi.z]
+  Vec3 lo, hi;
+  double cx = 0.0, cy = 0.0, cyl_radius = 0.0;
+  // radii (already scaled by alpha)
+  enum class Dist { Constant, Uniform, Discrete } dist = Dist::Constant;
+  double r_const = 0.0, r_min = 0.0, r_max = 0.0;
+  std::vector<double> values, cumulative;  // discrete: radii and cumulative number fractions
+  int64_t target = 0;      // particles to request in total
+  double rate = -1.0;      // particles/s; < 0: all in the first batch
+  double start = 0.0;
+  double interval = 0.0;   // batch period
+  Vec3 velocity;
+  double follow_gap = -1.0;
+  double follow_height = 0.0;    // height of the slab used when following the heap
+  int max_attempts = 200;
+  int max_stalled_batches = 50;
+};
+
+class Inserter {
+ public:
+  struct State {  // checkpointed
+    int64_t requested = 0, placed = 0, failed = 0, pending = 0;
+    double placed_mass = 0.0, failed_mass_estimate = 0.0;
+    int64_t batch = 0;
+    int stalled = 0;
+    bool done = false;
+  };
+
+  explicit Inserter(InsertionParams prm) : prm_(std::move(prm)) {}
+  const InsertionParams& params() const { return prm_; }
+  State& state() { return st_; }
+  const State& state() const { return st_; }
+
+  double next_batch_time() const { return prm_.start + static_cast<double>(st_.batch) * prm_.interval; }
+  bool due(double t, double dt) const { return !st_.done && t + 0.5 * dt >= next_batch_time(); }
+  // Runs one batch: appends placed particles to p (ids from next_id). Returns how many were placed.
+  int64_t run_batch(Particles& p, const WallSet& walls, std::mt19937_64& rng, int64_t& next_id, double g_mag);
+  // Stop inserting: pending particles and those never requested count as failed.
+  void finish();
+  // The run ends: particles still waiting for a place count as failed.
+  void abandon_pending();
+  double particle_mass(double r) const;
+
+ private:
+  double draw_radius(std::mt19937_64& rng) const;
+  InsertionParams prm_;
+  State st_;
+};
+
+}  // namespace mlcg

@@ -1,0 +1,271 @@
+// Checkpoint and restart: the complete state of a level in one HDF5 file
+// (written to a temporary name, then renamed). Restarting from it and running
+// N steps gives bit for bit the state of an uninterrupted run, because both
+// rebuild their neighbour lists at the step after the checkpoint.
+#include <sstream>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "io/h5.hpp"
+#include "level/level.hpp"
+
+namespace mlcg {
+
+namespace {
+constexpr int64_t kCheckpointVersion = 1;
+
+void write_history(io::H5Writer& w, const std::string& g, const ContactHistory& h) {
+  w.write(g + "/first", h.first);
+  w.write(g + "/key", h.key);
+  w.write_vec3(g + "/value", h.value);
+}
+
+ContactHistory read_history(const io::H5Reader& r, const std::string& g) {
+  ContactHistory h;
+  h.first = r.read<int32_t>(g + "/first");
+  h.key = r.read<int64_t>(g + "/key");
+  h.value = r.read_vec3(g + "/value");
+  return h;
+}
+}  // namespace
+
+void Level::write_checkpoint(const std::filesystem::path& path) const {
+  io::H5Writer w(path);
+  w.set_attr("/", "format", "mlcg-level-checkpoint");
+  w.set_attr("/", "version", kCheckpointVersion);
+  w.set_attr("/", "case", cs_.path);
+  w.set_attr("/", "level", lvl_.name);
+  w.set_attr("/", "step", step_);
+  w.set_attr("/", "dt", dt_);
+  w.set_attr("/", "alpha", alpha_);
+  w.set_attr("/", "next_id", next_id_);
+  w.set_attr("/", "removed", removed_);
+  w.set_attr("/", "removed_mass", removed_mass_);
+  w.set_attr("/", "particle_steps", particle_steps_);
+  w.set_attr("/", "max_particles", static_cast<uint64_t>(max_particles_));
+  w.set_attr("/", "rebuilds", rebuilds_);
+  w.set_attr("/", "end_time", end_time_);
+  w.set_attr("/", "next_stats", next_stats_);
+  w.set_attr("/", "next_snapshot", next_snapshot_);
+  w.set_attr("/", "next_checkpoint", next_checkpoint_);
+  w.set_attr("/", "snapshots", snapshots_);
+  w.set_attr("/", "wall_seconds", wall_seconds_before_);
+  std::ostringstream rng;
+  rng << rng_;
+  w.set_attr("/", "rng", rng.str());
+
+  w.write_vec3("particles/x", p_.x);
+  w.write_vec3("particles/v", p_.v);
+  w.write_vec3("particles/f", p_.f);
+  w.write_vec3("particles/omega", p_.omega);
+  w.write_vec3("particles/torque", p_.torque);
+  w.write("particles/radius", p_.radius);
+  w.write("particles/mass", p_.mass);
+  w.write("particles/inv_mass", p_.inv_mass);
+  w.write("particles/inv_inertia", p_.inv_inertia);
+  w.write("particles/id", p_.id);
+  w.write("particles/material", p_.material);
+
+  // Contact history as it stands now, in per-particle form.
+  ContactHistory ph, wh;
+  if (keep_history_) {
+    nl_.save_history(p_, ph);
+    walls_.save_history(p_, wh);
+  } else {
+    ph.clear(p_.size());
+    wh.clear(p_.size());
+  }
+  write_history(w, "history/pairs", ph);
+  write_history(w, "history/walls", wh);
+
+  std::vector<uint8_t> active;
+  for (size_t k = 0; k < walls_.walls(); ++k) active.push_back(walls_.active(k) ? 1 : 0);
+  w.write("walls/active", active);
+
+  for (size_t k = 0; k < ins_.size(); ++k) {
+    const auto& s = ins_[k].state();
+    const std::string g = fmt::format("insertion/{}", k);
+    w.create_group(g);
+    w.set_attr(g, "requested", s.requested);
+    w.set_attr(g, "placed", s.placed);
+    w.set_attr(g, "failed", s.failed);
+    w.set_attr(g, "pending", s.pending);
+    w.set_attr(g, "placed_mass", s.placed_mass);
+    w.set_attr(g, "failed_mass", s.failed_mass_estimate);
+    w.set_attr(g, "batch", s.batch);
+    w.set_attr(g, "stalled", static_cast<int64_t>(s.stalled));
+    w.set_attr(g, "done", static_cast<int64_t>(s.done));
+  }
+  for (size_t k = 0; k < probes_.size(); ++k) {
+    const auto& pr = probes_[k];
+    const auto& s = pr.state();
+    const std::string g = fmt::format("probes/{}", k);
+    w.create_group(g);
+    w.set_attr(g, "sample_start", s.sample_start);
+    w.set_attr(g, "mass", s.mass);
+    w.set_attr(g, "total_mass", s.total_mass);
+    w.set_attr(g, "window_start", pr.params().window_start);
+    w.set_attr(g, "window_end", pr.params().window_end);
+    w.set_attr(g, "window_known", static_cast<int64_t>(pr.params().window_known));
+    std::vector<double> te, rate;
+    for (const auto& smp : s.samples) {
+      te.push_back(smp.t_end);
+      rate.push_back(smp.rate);
+    }
+    w.write(g + "/t_end", te);
+    w.write(g + "/rate", rate);
+  }
+  for (size_t k = 0; k < grids_.size(); ++k) {
+    const auto& gr = grids_[k];
+    const auto& s = gr.grid.state();
+    const std::string g = fmt::format("grids/{}", k);
+    w.create_group(g);
+    w.set_attr(g, "samples", s.samples);
+    w.set_attr(g, "next_output", gr.next_output);
+    w.set_attr(g, "outputs", gr.outputs);
+    w.write(g + "/phi", s.phi);
+    w.write(g + "/mass", s.mass);
+    w.write(g + "/max_speed", s.max_speed);
+    w.write(g + "/stress6", s.stress6);
+    w.write(g + "/count", s.count);
+    w.write_vec3(g + "/momentum", s.momentum);
+  }
+  std::vector<uint8_t> fired;
+  std::vector<double> fired_at, next_check;
+  for (const auto& e : events_) {
+    fired.push_back(e.fired ? 1 : 0);
+    fired_at.push_back(e.fired_at);
+    next_check.push_back(e.next_check);
+  }
+  w.write("events/fired", fired);
+  w.write("events/fired_at", fired_at);
+  w.write("events/next_check", next_check);
+  std::string rows;
+  for (const auto& r : series_rows_) rows += r + "\n";
+  w.write("series/rows", reinterpret_cast<const uint8_t*>(rows.data()), rows.size());
+  w.commit();
+}
+
+void Level::load_checkpoint(const std::filesystem::path& path) {
+  io::H5Reader r(path);
+  const auto where = path.string();
+  if (!r.has_attr("/", "format") || r.attr_string("/", "format") != "mlcg-level-checkpoint")
+    throw std::runtime_error(where + ": not an MLCG level checkpoint");
+  if (r.attr_int64("/", "version") != kCheckpointVersion)
+    throw std::runtime_error(fmt::format("{}: checkpoint format version {} is not supported (this build reads {})",
+                                         where, r.attr_int64("/", "version"), kCheckpointVersion));
+  if (r.attr_double("/", "dt") != dt_ || r.attr_double("/", "alpha") != alpha_)
+    throw std::runtime_error(fmt::format("{}: written with dt = {} s and alpha = {}, but the case now has dt = {} s "
+                                         "and alpha = {}",
+                                         where, r.attr_double("/", "dt"), r.attr_double("/", "alpha"), dt_, alpha_));
+  step_ = r.attr_uint64("/", "step");
+  next_id_ = r.attr_int64("/", "next_id");
+  removed_ = r.attr_int64("/", "removed");
+  removed_mass_ = r.attr_double("/", "removed_mass");
+  particle_steps_ = r.attr_uint64("/", "particle_steps");
+  max_particles_ = r.attr_uint64("/", "max_particles");
+  rebuilds_ = r.attr_uint64("/", "rebuilds");
+  end_time_ = r.attr_double("/", "end_time");
+  next_stats_ = r.attr_double("/", "next_stats");
+  next_snapshot_ = r.attr_double("/", "next_snapshot");
+  next_checkpoint_ = r.attr_double("/", "next_checkpoint");
+  snapshots_ = r.attr_int64("/", "snapshots");
+  wall_seconds_before_ = r.attr_double("/", "wall_seconds");
+  std::istringstream rng(r.attr_string("/", "rng"));
+  rng >> rng_;
+
+  Particles p;
+  p.x = r.read_vec3("particles/x");
+  p.v = r.read_vec3("particles/v");
+  p.f = r.read_vec3("particles/f");
+  p.omega = r.read_vec3("particles/omega");
+  p.torque = r.read_vec3("particles/torque");
+  p.radius = r.read<double>("particles/radius");
+  p.mass = r.read<double>("particles/mass");
+  p.inv_mass = r.read<double>("particles/inv_mass");
+  p.inv_inertia = r.read<double>("particles/inv_inertia");
+  p.id = r.read<int64_t>("particles/id");
+  p.material = r.read<int32_t>("particles/material");
+  std::vector<int32_t> all(p.x.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int32_t>(i);
+  p.permute(all);  // sets the local count
+  p_ = std::move(p);
+
+  pair_hist_ = read_history(r, "history/pairs");
+  wall_hist_ = read_history(r, "history/walls");
+  history_loaded_ = true;
+
+  const auto active = r.read<uint8_t>("walls/active");
+  if (active.size() != walls_.walls())
+    throw std::runtime_error(fmt::format("{}: has {} walls, the case has {}", where, active.size(), walls_.walls()));
+  for (size_t k = 0; k < active.size(); ++k) walls_.set_active(k, active[k] != 0);
+
+  for (size_t k = 0; k < ins_.size(); ++k) {
+    auto& s = ins_[k].state();
+    const std::string g = fmt::format("insertion/{}", k);
+    s.requested = r.attr_int64(g, "requested");
+    s.placed = r.attr_int64(g, "placed");
+    s.failed = r.attr_int64(g, "failed");
+    s.pending = r.attr_int64(g, "pending");
+    s.placed_mass = r.attr_double(g, "placed_mass");
+    s.failed_mass_estimate = r.attr_double(g, "failed_mass");
+    s.batch = r.attr_int64(g, "batch");
+    s.stalled = static_cast<int>(r.attr_int64(g, "stalled"));
+    s.done = r.attr_int64(g, "done") != 0;
+  }
+  for (size_t k = 0; k < probes_.size(); ++k) {
+    auto& pr = probes_[k];
+    auto& s = pr.state();
+    const std::string g = fmt::format("probes/{}", k);
+    s.sample_start = r.attr_double(g, "sample_start");
+    s.mass = r.attr_double(g, "mass");
+    s.total_mass = r.attr_double(g, "total_mass");
+    pr.params().window_start = r.attr_double(g, "window_start");
+    pr.params().window_end = r.attr_double(g, "window_end");
+    pr.params().window_known = r.attr_int64(g, "window_known") != 0;
+    const auto te = r.read<double>(g + "/t_end");
+    const auto rate = r.read<double>(g + "/rate");
+    s.samples.clear();
+    for (size_t q = 0; q < te.size(); ++q) s.samples.push_back({te[q], rate[q]});
+    // Sides of the plane as they are now, as the uninterrupted run knows them.
+    pr.refresh(p_, skin_);
+  }
+  for (size_t k = 0; k < grids_.size(); ++k) {
+    auto& gr = grids_[k];
+    auto& s = gr.grid.state();
+    const std::string g = fmt::format("grids/{}", k);
+    s.samples = r.attr_int64(g, "samples");
+    gr.next_output = r.attr_double(g, "next_output");
+    gr.outputs = r.attr_int64(g, "outputs");
+    s.phi = r.read<double>(g + "/phi");
+    s.mass = r.read<double>(g + "/mass");
+    s.max_speed = r.read<double>(g + "/max_speed");
+    s.stress6 = r.read<double>(g + "/stress6");
+    s.count = r.read<double>(g + "/count");
+    s.momentum = r.read_vec3(g + "/momentum");
+  }
+  const auto fired = r.read<uint8_t>("events/fired");
+  const auto fired_at = r.read<double>("events/fired_at");
+  const auto next_check = r.read<double>("events/next_check");
+  for (size_t e = 0; e < events_.size() && e < fired.size(); ++e) {
+    events_[e].fired = fired[e] != 0;
+    events_[e].fired_at = fired_at[e];
+    events_[e].next_check = next_check[e];
+  }
+  const auto rows = r.read<uint8_t>("series/rows");
+  series_rows_.clear();
+  std::string line;
+  for (uint8_t c : rows) {
+    if (c == '\n') {
+      series_rows_.push_back(line);
+      line.clear();
+    } else {
+      line.push_back(static_cast<char>(c));
+    }
+  }
+  rebuild_pending_ = true;
+  log_->info("restarted from {} at step {} (t = {:.6g} s) with {} particles", where, step_, time(), p_.n_local());
+}
+
+}  // namespace mlcg

@@ -1,0 +1,214 @@
+// The time loop of a level: events, insertion, velocity Verlet, neighbour
+// rebuilds (with removal and spatial sorting), guards and measurements.
+#include "level/level.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <csignal>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "forces/integrator.hpp"
+
+namespace mlcg {
+
+namespace {
+std::atomic<bool> g_stop{false};
+extern "C" void on_signal(int) { g_stop.store(true); }
+constexpr uint64_t kSortEvery = 20;  // spatial sort every this many rebuilds
+}  // namespace
+
+void install_signal_handlers() {
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+}
+bool stop_requested() { return g_stop.load(); }
+
+void Level::pre_step() {
+  const double t = time();
+  const double half = 0.5 * dt_;
+  for (size_t e = 0; e < events_.size(); ++e) {
+    auto& es = events_[e];
+    if (es.fired) continue;
+    const auto& spec = cs_.events[e];
+    if (spec.at >= 0.0) {
+      if (t + half >= spec.at) fire_event(e);
+      continue;
+    }
+    if (t + half < es.next_check) continue;
+    es.next_check = t + spec.check_interval;
+    bool ready = true;
+    if (spec.after_insertion)
+      for (const auto& in : ins_) ready = ready && in.state().done;
+    if (ready && spec.mean_speed_below >= 0.0) {
+      double m = 0.0, mv2 = 0.0;
+      for (size_t i = 0; i < p_.n_local(); ++i) {
+        m += p_.mass[i];
+        mv2 += p_.mass[i] * norm2(p_.v[i]);
+      }
+      const double rms = m > 0.0 ? std::sqrt(mv2 / m) : 0.0;
+      ready = rms < spec.mean_speed_below;
+    }
+    if (ready) {
+      fire_event(e);
+    } else if (t + half >= spec.latest) {
+      log_->warn("event '{}': its condition was not met by latest = {} s; firing anyway", spec.name, spec.latest);
+      fire_event(e);
+    }
+  }
+
+  for (auto& in : ins_) {
+    if (!in.due(t, dt_)) continue;
+    const size_t before = p_.size();
+    const int64_t placed = in.run_batch(p_, walls_, rng_, next_id_, norm(gravity_));
+    for (size_t i = before; i < p_.size(); ++i) p_.f[i] = p_.mass[i] * gravity_;
+    if (placed > 0) rebuild_pending_ = true;
+    if (in.state().done && in.state().failed > 0)
+      log_->warn("insertion '{}': {} particles could not be placed (region full or blocked)", in.params().name,
+                 in.state().failed);
+  }
+}
+
+void Level::fire_event(size_t e) {
+  auto& es = events_[e];
+  const auto& spec = cs_.events[e];
+  es.fired = true;
+  es.fired_at = time();
+  for (const auto& w : spec.remove_walls) {
+    walls_.set_active(static_cast<size_t>(walls_.find(w)), false);
+    rebuild_pending_ = true;
+  }
+  log_->info("t = {:.4f} s: event '{}'{}", es.fired_at, spec.name,
+             spec.remove_walls.empty() ? "" : fmt::format(" removes {}", fmt::join(spec.remove_walls, ", ")));
+  for (size_t k = 0; k < probes_.size(); ++k)
+    if (probe_events_[k] == spec.name) {
+      auto& q = probes_[k].params();
+      q.window_start = es.fired_at + cs_.probes[k].window_start;
+      q.window_end = es.fired_at + cs_.probes[k].window_end;
+      q.window_known = true;
+    }
+  resolve_end_time();
+}
+
+void Level::rebuild() {
+  if (keep_history_ && !history_loaded_) {
+    nl_.save_history(p_, pair_hist_);
+    walls_.save_history(p_, wall_hist_);
+  }
+  history_loaded_ = false;
+  // Removal of particles that left the domain, and a periodic spatial sort.
+  const size_t n = p_.n_local();
+  std::vector<int32_t> order;
+  const bool sort_now = rebuilds_ % kSortEvery == 0;
+  if (sort_now) {
+    CellBins bins;
+    double rmax = 0.0;
+    for (size_t i = 0; i < n; ++i) rmax = std::max(rmax, p_.radius[i]);
+    bins.build(p_.x, n, 2.0 * rmax + skin_);
+    order = bins.sorted();
+  } else {
+    order.resize(n);
+    for (size_t i = 0; i < n; ++i) order[i] = static_cast<int32_t>(i);
+  }
+  std::vector<int32_t> keep;
+  keep.reserve(n);
+  for (int32_t i : order) {
+    const Vec3& x = p_.x[static_cast<size_t>(i)];
+    if (x.x < dom_lo_.x || x.y < dom_lo_.y || x.z < dom_lo_.z || x.x > dom_hi_.x || x.y > dom_hi_.y ||
+        x.z > dom_hi_.z) {
+      ++removed_;
+      removed_mass_ += p_.mass[static_cast<size_t>(i)];
+      continue;
+    }
+    keep.push_back(i);
+  }
+  if (sort_now || keep.size() != n) {
+    p_.permute(keep);
+    if (keep_history_) {
+      pair_hist_.permute(keep, p_.size());
+      wall_hist_.permute(keep, p_.size());
+    }
+  }
+  nl_.build(p_, keep_history_);
+  walls_.build_candidates(p_, skin_, keep_history_);
+  if (keep_history_) {
+    nl_.load_history(p_, pair_hist_);
+    walls_.load_history(wall_hist_);
+  }
+  for (auto& pr : probes_) pr.refresh(p_, skin_);
+  ++rebuilds_;
+  rebuild_pending_ = false;
+}
+
+std::string Level::describe_particle(size_t i) const {
+  const Vec3& x = p_.x[i];
+  const Vec3& v = p_.v[i];
+  return fmt::format("particle id {} (radius {:.4g} m) at ({:.6g}, {:.6g}, {:.6g}) m with velocity ({:.4g}, {:.4g}, "
+                     "{:.4g}) m/s, step {}, t = {:.6g} s",
+                     p_.id[i], p_.radius[i], x.x, x.y, x.z, v.x, v.y, v.z, step_, time());
+}
+
+void Level::check_finite(double checksum, const char* what) {
+  if (std::isfinite(checksum)) return;
+  for (size_t i = 0; i < p_.n_local(); ++i)
+    if (!finite(p_.x[i]) || !finite(p_.v[i]) || !finite(p_.omega[i]))
+      throw GuardStop(fmt::format("non-finite {} of {}", what, describe_particle(i)));
+  throw GuardStop(fmt::format("non-finite {} at step {} (sum overflow)", what, step_));
+}
+
+void Level::step_once() {
+  pre_step();
+  check_finite(integrate_first_half(p_, dt_), "position");
+  for (auto& pr : probes_) pr.check(p_);
+  if (rebuild_pending_ || nl_.needs_rebuild(p_)) rebuild();
+  init_forces(p_, gravity_);
+  bool stress = false;
+  for (const auto& g : grids_) stress = stress || (step_ + 1) % g.sample_every == 0;
+  forces_(fctx_, stress);
+  const auto& st = fctx_.stats;
+  if (st.max_overlap_ratio > cs_.stability.max_overlap_fraction)
+    throw GuardStop(fmt::format("overlap of {:.1f} % of the radius (limit [stability] max_overlap_fraction = {:.0f} "
+                                "%) at {}: the time step is too large for this impact or the material too soft",
+                                100.0 * st.max_overlap_ratio, 100.0 * cs_.stability.max_overlap_fraction,
+                                describe_particle(static_cast<size_t>(st.worst_particle))));
+  check_finite(integrate_second_half(p_, dt_), "velocity");
+  ++step_;
+  ++steps_this_process_;
+  particle_steps_ += p_.n_local();
+  max_particles_ = std::max(max_particles_, p_.n_local());
+  after_step();
+}
+
+MassBalance Level::mass_balance() const {
+  MassBalance b;
+  for (const auto& in : ins_) {
+    const auto& s = in.state();
+    b.requested += s.requested;
+    b.inserted += s.placed;
+    b.failed += s.failed;
+    b.pending += s.pending;
+    b.inserted_mass += s.placed_mass;
+    b.failed_mass += s.failed_mass_estimate;
+  }
+  // Particles placed explicitly by the case count as requested and inserted.
+  const auto explicit_n = static_cast<int64_t>(cs_.particles.size());
+  b.requested += explicit_n;
+  b.inserted += explicit_n;
+  b.inserted_mass += explicit_mass_;
+  b.present = static_cast<int64_t>(p_.n_local());
+  b.removed = removed_;
+  b.removed_mass = removed_mass_;
+  for (size_t i = 0; i < p_.n_local(); ++i) b.present_mass += p_.mass[i];
+  return b;
+}
+
+double Level::kinetic_energy() const {
+  double e = 0.0;
+  for (size_t i = 0; i < p_.n_local(); ++i)
+    e += 0.5 * p_.mass[i] * norm2(p_.v[i]) + 0.5 / p_.inv_inertia[i] * norm2(p_.omega[i]);
+  return e;
+}
+
+}  // namespace mlcg

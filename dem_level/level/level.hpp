@@ -1,0 +1,170 @@
+#pragma once
+// One coarse-grain level: the particles, walls, insertion, measurements and
+// the time loop, configured from a parsed case. The level never reads the case
+// file itself (config/ does) and the physics never sees a TOML node.
+//
+// Step order (velocity Verlet):
+//   events and insertion due at t  ->  first half kick + drift  ->  probes count
+//   crossings  ->  rebuild if needed  ->  forces  ->  second half kick  ->  guards
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "config/case_spec.hpp"
+#include "core/material.hpp"
+#include "core/particles.hpp"
+#include "insertion/inserter.hpp"
+#include "level/force_dispatch.hpp"
+#include "level/stability.hpp"
+#include "measure/cell_grid.hpp"
+#include "measure/probe.hpp"
+#include "neighbor/neighbor_list.hpp"
+#include "walls/wall_set.hpp"
+
+namespace spdlog { class logger; }
+
+namespace mlcg {
+namespace io { class SnapshotSeries; class GridSeries; }
+
+struct LevelOptions {
+  std::filesystem::path out_dir;   // run folder; empty = write nothing (tests)
+  std::filesystem::path restart;   // checkpoint to continue from
+  int64_t max_steps = -1;          // stop (with a checkpoint) after this many steps in this process
+  bool quiet = false;              // no progress lines
+};
+
+// Raised when the level stops on a guard: NaN/inf or an excessive overlap.
+struct GuardStop : std::runtime_error { using std::runtime_error::runtime_error; };
+
+enum class RunStatus { Completed, StepLimit, Interrupted, Failed };
+const char* to_string(RunStatus s);
+
+struct MassBalance {
+  int64_t requested = 0, inserted = 0, present = 0, removed = 0, failed = 0, pending = 0;
+  double inserted_mass = 0.0, present_mass = 0.0, removed_mass = 0.0, failed_mass = 0.0;
+};
+
+class Level {
+ public:
+  Level(const config::CaseSpec& cs, LevelOptions opt);
+  ~Level();
+  Level(const Level&) = delete;
+  Level& operator=(const Level&) = delete;
+
+  RunStatus run();                // until the end time (or max_steps / interrupt / guard)
+  void step_once();               // one time step, events and insertion included (throws GuardStop)
+  void add_particle(const ParticleInit& pi);  // explicit placement; ids must be unique
+
+  // State, for tests and reports.
+  const Particles& particles() const { return p_; }
+  Particles& particles_mut() { rebuild_pending_ = true; return p_; }
+  double time() const { return static_cast<double>(step_) * dt_; }
+  uint64_t step() const { return step_; }
+  double dt() const { return dt_; }
+  double end_time() const { return end_time_; }
+  const WallSet& walls() const { return walls_; }
+  const std::vector<Vec3>& wall_forces() const { return wall_force_; }
+  const ContactStats& contact_stats() const { return fctx_.stats; }
+  const std::vector<MassFlowProbe>& probes() const { return probes_; }
+  MassBalance mass_balance() const;
+  double kinetic_energy() const;
+  const StabilityReport& stability() const { return stab_; }
+  const config::CaseSpec& spec() const { return cs_; }
+  // Cell-grid averages since the last output of grid g (resets them).
+  GridAverages take_grid_averages(size_t g) { return grids_[g].grid.take_averages(); }
+
+  void write_checkpoint(const std::filesystem::path& path) const;
+  void interrupt() { interrupted_ = true; }
+
+ private:
+  struct EventState {
+    bool fired = false;
+    double fired_at = -1.0;
+    double next_check = 0.0;
+  };
+  struct GridRun {
+    CellGrid grid;
+    uint64_t sample_every = 1;   // steps
+    double output_interval = 0.0;
+    double next_output = 0.0;
+    int64_t outputs = 0;
+    std::unique_ptr<io::GridSeries> series;
+  };
+
+  void setup();
+  void setup_walls();
+  void setup_insertions();
+  void setup_measurements();
+  void load_checkpoint(const std::filesystem::path& path);
+
+  void pre_step();                // events and insertion at the current time
+  void fire_event(size_t e);
+  void rebuild();
+  void check_finite(double checksum, const char* what);
+  void after_step();              // measurements and outputs at the new time
+  void write_outputs(bool final);
+  void write_summary(const std::string& status, const std::string& reason) const;
+  void progress(bool force);
+  std::string describe_particle(size_t i) const;
+  void resolve_end_time();
+
+  config::CaseSpec cs_;
+  LevelOptions opt_;
+  config::LevelSpec lvl_;
+  double dt_ = 0.0, alpha_ = 1.0, skin_ = 0.0;
+  Vec3 gravity_;
+  Vec3 dom_lo_, dom_hi_;
+  MaterialTable mt_;
+  ContactChoice choice_;
+  bool keep_history_ = true;
+  ForceRoutine forces_ = nullptr;
+  StabilityReport stab_;
+
+  Particles p_;
+  NeighborList nl_;
+  WallSet walls_;
+  ContactHistory pair_hist_, wall_hist_;
+  std::vector<double> stress6_;
+  std::vector<Vec3> wall_force_;
+  ForceContext fctx_;
+
+  std::vector<Inserter> ins_;
+  std::vector<MassFlowProbe> probes_;
+  std::vector<std::string> probe_events_;  // window_relative_to per probe
+  std::vector<GridRun> grids_;
+  std::vector<EventState> events_;
+
+  std::mt19937_64 rng_;
+  uint64_t step_ = 0;
+  int64_t next_id_ = 0;
+  int64_t removed_ = 0;
+  double explicit_mass_ = 0.0;      // mass of the case's [[particles]]
+  double removed_mass_ = 0.0;
+  uint64_t particle_steps_ = 0;
+  size_t max_particles_ = 0;
+  uint64_t rebuilds_ = 0;
+  bool rebuild_pending_ = true;
+  bool history_loaded_ = false;     // contact history came from a checkpoint, not the list
+  double end_time_ = -1.0;          // < 0: not known yet (waits for an event)
+  double next_stats_ = 0.0, next_snapshot_ = 0.0, next_checkpoint_ = 0.0;
+  int64_t snapshots_ = 0;
+  bool interrupted_ = false;
+  int64_t steps_this_process_ = 0;
+
+  // Output and reporting (not physics state).
+  std::shared_ptr<spdlog::logger> log_;
+  std::unique_ptr<io::SnapshotSeries> snaps_;
+  std::vector<std::string> series_rows_;
+  double wall_start_ = 0.0, last_progress_ = -1e300;
+  double wall_seconds_before_ = 0.0;  // from earlier processes of a restarted run
+};
+
+// Installs SIGINT/SIGTERM handlers that ask every running level to stop cleanly.
+void install_signal_handlers();
+bool stop_requested();
+
+}  // namespace mlcg

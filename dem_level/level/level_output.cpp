@@ -1,0 +1,223 @@
+// What a level reports: the run loop with progress lines, time series,
+// probe files, snapshots, grid series and summary.json. Every file is written
+// under a temporary name and renamed.
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "io/atomic_file.hpp"
+#include "io/grid_series.hpp"
+#include "io/snapshot_series.hpp"
+#include "level/level.hpp"
+
+namespace mlcg {
+
+namespace {
+double now_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+std::string human_duration(double s) {
+  if (!std::isfinite(s) || s < 0) return "?";
+  if (s < 60) return fmt::format("{:.0f} s", s);
+  if (s < 3600) return fmt::format("{:.0f} min {:02.0f} s", std::floor(s / 60), std::fmod(s, 60));
+  return fmt::format("{:.0f} h {:02.0f} min", std::floor(s / 3600), std::fmod(s, 3600) / 60);
+}
+constexpr const char* kSeriesHeader =
+    "t,particles,kinetic_energy_J,pair_contacts,wall_contacts,requested,inserted,removed,failed,pending,rebuilds\n";
+}  // namespace
+
+RunStatus Level::run() {
+  wall_start_ = now_seconds();
+  const double half = 0.5 * dt_;
+  if (opt_.restart.empty()) {
+    const auto& o = cs_.output;
+    next_stats_ = o.stats_interval;
+    next_snapshot_ = o.snapshot_interval;
+    next_checkpoint_ = o.checkpoint_interval;
+    series_rows_.push_back(fmt::format("0,{},{:.9g},0,0,0,{},0,0,0,0", p_.n_local(), kinetic_energy(), p_.n_local()));
+  }
+  if (end_time_ >= 0.0) log_->info("running to t = {:.4g} s ({} steps)", end_time_, std::llround(end_time_ / dt_));
+  else log_->info("running until event '{}' + {} s", cs_.time.end_event, cs_.time.end_plus);
+
+  RunStatus status = RunStatus::Completed;
+  std::string reason;
+  try {
+    while (true) {
+      if (end_time_ >= 0.0 && time() >= end_time_ - half) break;
+      if (interrupted_ || stop_requested()) {
+        status = RunStatus::Interrupted;
+        reason = "interrupted by a signal";
+        break;
+      }
+      if (opt_.max_steps >= 0 && steps_this_process_ >= opt_.max_steps) {
+        status = RunStatus::StepLimit;
+        break;
+      }
+      step_once();
+      progress(false);
+    }
+  } catch (const GuardStop& e) {
+    status = RunStatus::Failed;
+    reason = e.what();
+    log_->error("STOPPED: {}", reason);
+    if (!opt_.out_dir.empty()) {
+      write_checkpoint(opt_.out_dir / "checkpoint_failed.h5");
+      log_->error("state at the stop written to {}", (opt_.out_dir / "checkpoint_failed.h5").string());
+    }
+  }
+  if (status == RunStatus::Completed)
+    for (auto& in : ins_) in.abandon_pending();
+  progress(true);
+  write_outputs(true);
+  if (!opt_.out_dir.empty() && status != RunStatus::Failed) write_checkpoint(opt_.out_dir / "checkpoint.h5");
+  write_summary(to_string(status), reason);
+  const auto b = mass_balance();
+  log_->info("{}: t = {:.4f} s, {} steps, {} particles present, {} removed, {} failed to place", to_string(status),
+             time(), step_, b.present, b.removed, b.failed);
+  for (const auto& pr : probes_) {
+    const auto w = pr.window_stats();
+    if (w.samples > 0)
+      log_->info("probe '{}': mass flow {:.4f} +- {:.4f} kg/s over {} samples", pr.params().name, w.mean, w.stddev,
+                 w.samples);
+  }
+  return status;
+}
+
+void Level::after_step() {
+  const double t = time();
+  const double half = 0.5 * dt_;
+  for (auto& pr : probes_) pr.advance(t);
+  for (auto& g : grids_) {
+    if (step_ % g.sample_every == 0) g.grid.sample(p_, stress6_);
+    if (t >= g.next_output - half) {
+      const GridAverages a = g.grid.take_averages();
+      if (g.series) g.series->write(t, a.volume_fraction, a.mean_velocity, a.max_speed, a.stress6, a.count);
+      g.next_output += g.output_interval;
+      ++g.outputs;
+    }
+  }
+  const auto& o = cs_.output;
+  if (o.stats_interval > 0.0 && t >= next_stats_ - half) {
+    const auto b = mass_balance();
+    series_rows_.push_back(fmt::format("{:.6f},{},{:.9g},{},{},{},{},{},{},{},{}", t, p_.n_local(), kinetic_energy(),
+                                       fctx_.stats.pair_contacts, fctx_.stats.wall_contacts, b.requested, b.inserted,
+                                       b.removed, b.failed, b.pending, rebuilds_));
+    next_stats_ += o.stats_interval;
+  }
+  if (o.snapshot_interval > 0.0 && t >= next_snapshot_ - half) {
+    if (snaps_) snaps_->write(t, step_, p_.n_local(), p_.x.data(), p_.v.data(), p_.omega.data(), p_.radius.data(),
+                              p_.id.data());
+    ++snapshots_;
+    next_snapshot_ += o.snapshot_interval;
+  }
+  if (o.checkpoint_interval > 0.0 && t >= next_checkpoint_ - half) {
+    next_checkpoint_ += o.checkpoint_interval;
+    if (!opt_.out_dir.empty()) {
+      write_checkpoint(opt_.out_dir / "checkpoint.h5");
+      write_outputs(false);
+      write_summary("running", "");
+    }
+    // The restarted run rebuilds its lists at the next step; so does this one,
+    // which keeps both bit-identical.
+    rebuild_pending_ = true;
+  }
+}
+
+void Level::write_outputs(bool final) {
+  if (opt_.out_dir.empty()) return;
+  if (final && snaps_ && (snaps_->entries().empty() || snaps_->entries().back().time < time()))
+    snaps_->write(time(), step_, p_.n_local(), p_.x.data(), p_.v.data(), p_.omega.data(), p_.radius.data(),
+                  p_.id.data());
+  std::string csv = kSeriesHeader;
+  for (const auto& r : series_rows_) csv += r + "\n";
+  io::write_file_atomic(opt_.out_dir / "series.csv", csv);
+  for (const auto& pr : probes_) io::write_file_atomic(opt_.out_dir / "probes" / (pr.params().name + ".csv"), pr.csv());
+}
+
+void Level::write_summary(const std::string& status, const std::string& reason) const {
+  if (opt_.out_dir.empty()) return;
+  using nlohmann::json;
+  const double wall = wall_seconds_before_ + (now_seconds() - wall_start_);
+  json j;
+  j["status"] = status;
+  j["reason"] = reason;
+  j["case"] = cs_.path;
+  j["title"] = cs_.title;
+  j["wall_seconds"] = wall;
+  j["simulated_time"] = time();
+  j["steps"] = step_;
+  j["end_time"] = end_time_;
+  json lv;
+  lv["name"] = lvl_.name;
+  lv["alpha"] = alpha_;
+  lv["dt"] = dt_;
+  lv["ranks"] = lvl_.ranks;
+  lv["particles_max"] = max_particles_;
+  lv["particles_final"] = p_.n_local();
+  lv["particle_steps"] = particle_steps_;
+  lv["particle_steps_per_second"] = wall > 0.0 ? static_cast<double>(particle_steps_) / wall : 0.0;
+  lv["neighbour_rebuilds"] = rebuilds_;
+  lv["skin"] = skin_;
+  lv["rayleigh_time"] = stab_.rayleigh_time;
+  lv["hertz_contact_time"] = stab_.contact_time;
+  lv["impact_speed"] = stab_.impact_speed;
+  lv["steps_per_contact"] = stab_.steps_per_contact;
+  lv["dt_guard_overridden"] = stab_.overridden;
+  j["levels"] = json::array({lv});
+  json probes = json::array();
+  for (const auto& pr : probes_) {
+    const auto w = pr.window_stats();
+    json q;
+    q["name"] = pr.params().name;
+    q["file"] = "probes/" + pr.params().name + ".csv";
+    q["window"] = pr.params().window_known ? json::array({pr.params().window_start, pr.params().window_end}) : json();
+    q["samples_in_window"] = w.samples;
+    q["mean_kg_per_s"] = w.mean;
+    q["std_kg_per_s"] = w.stddev;
+    q["total_mass_kg"] = pr.state().total_mass;
+    probes.push_back(q);
+  }
+  j["probes"] = probes;
+  const auto b = mass_balance();
+  j["mass_balance"] = {{"requested", b.requested},       {"inserted", b.inserted},
+                       {"present", b.present},           {"removed", b.removed},
+                       {"failed_to_place", b.failed},    {"pending", b.pending},
+                       {"inserted_mass_kg", b.inserted_mass}, {"present_mass_kg", b.present_mass},
+                       {"removed_mass_kg", b.removed_mass},   {"failed_mass_kg", b.failed_mass}};
+  json ev = json::array();
+  for (size_t e = 0; e < events_.size(); ++e)
+    ev.push_back({{"name", cs_.events[e].name},
+                  {"fired", events_[e].fired},
+                  {"time", events_[e].fired ? json(events_[e].fired_at) : json()}});
+  j["events"] = ev;
+  io::write_file_atomic(opt_.out_dir / "summary.json", j.dump(2) + "\n");
+}
+
+void Level::progress(bool force) {
+  if (opt_.quiet) return;
+  const double now = now_seconds();
+  if (!force && now - last_progress_ < cs_.time.progress_interval) return;
+  static thread_local double last_t = 0.0, last_wall = 0.0;
+  const double wall = now - wall_start_;
+  const double t = time();
+  const double rate = wall > 0.0 ? static_cast<double>(particle_steps_) / (wall + wall_seconds_before_) : 0.0;
+  // ETA from the simulated-time speed of the last interval.
+  std::string eta = "ETA ?";
+  if (end_time_ >= 0.0 && last_progress_ > -1e299 && now > last_wall && t > last_t) {
+    const double speed = (t - last_t) / (now - last_wall);
+    eta = "ETA " + human_duration((end_time_ - t) / speed);
+  } else if (end_time_ < 0.0) {
+    eta = fmt::format("end: event '{}' + {} s", cs_.time.end_event, cs_.time.end_plus);
+  }
+  log_->info("t = {:.4f} s{} | {} particles | {:.3g} particle-steps/s | {}", t,
+             end_time_ >= 0.0 ? fmt::format(" / {:.4f} s ({:.0f} %)", end_time_, 100.0 * t / end_time_) : "",
+             p_.n_local(), rate, eta);
+  last_t = t;
+  last_wall = now;
+  last_progress_ = now;
+}
+
+}  // namespace mlcg

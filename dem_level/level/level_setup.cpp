@@ -1,0 +1,305 @@
+// Building a level from a parsed case: materials, contact model, walls,
+// insertion, explicit particles, measurements and the stability guard.
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "io/grid_series.hpp"
+#include "io/snapshot_series.hpp"
+#include "level/level.hpp"
+#include "walls/stl_reader.hpp"
+
+namespace mlcg {
+
+namespace {
+
+Vec3 unit(const Vec3& a) { return a / norm(a); }
+
+AnalyticWall make_analytic(const config::WallSpec& w) {
+  AnalyticWall a;
+  if (w.type == config::WallType::Plane) {
+    a.kind = AnalyticWall::Kind::Plane;
+    a.plane = {w.point, unit(w.normal)};
+    return a;
+  }
+  a.kind = AnalyticWall::Kind::Revolution;
+  RevolutionWall& r = a.rev;
+  r.c = w.center;
+  r.a = unit(w.axis);
+  switch (w.type) {
+    case config::WallType::Cylinder:
+      r.rho0 = r.rho1 = w.radius;
+      r.s0 = w.bottom;
+      r.s1 = w.top;
+      r.rim0 = w.rim_bottom;
+      r.rim1 = w.rim_top;
+      break;
+    case config::WallType::Cone:
+      r.rho0 = w.radius_bottom;
+      r.rho1 = w.radius_top;
+      r.s0 = w.bottom;
+      r.s1 = w.top;
+      r.rim0 = w.rim_bottom;
+      r.rim1 = w.rim_top;
+      break;
+    default:  // disk: the segment from the axis to the rim, in the plane through center
+      r.rho0 = 0.0;
+      r.rho1 = w.radius;
+      r.s0 = r.s1 = 0.0;
+      r.rim0 = false;
+      r.rim1 = true;
+      break;
+  }
+  return a;
+}
+
+}  // namespace
+
+const char* to_string(RunStatus s) {
+  switch (s) {
+    case RunStatus::Completed: return "completed";
+    case RunStatus::StepLimit: return "stopped_at_step_limit";
+    case RunStatus::Interrupted: return "interrupted";
+    case RunStatus::Failed: return "failed";
+  }
+  return "unknown";
+}
+
+Level::Level(const config::CaseSpec& cs, LevelOptions opt)
+    : cs_(cs), opt_(std::move(opt)), fctx_{p_, nl_, walls_, mt_, 0.0, stress6_, wall_force_, {}} {
+  setup();
+}
+
+Level::~Level() = default;
+
+void Level::setup() {
+  // Logging: console (unless quiet) and, with a run folder, its log file.
+  std::vector<spdlog::sink_ptr> sinks;
+  if (!opt_.quiet) sinks.push_back(std::make_shared<spdlog::sinks::stdout_sink_mt>());
+  if (!opt_.out_dir.empty()) {
+    std::filesystem::create_directories(opt_.out_dir);
+    sinks.push_back(std::make_shared<spdlog::sinks::basic_file_sink_mt>((opt_.out_dir / "log.txt").string()));
+  }
+  log_ = std::make_shared<spdlog::logger>("dem_level", sinks.begin(), sinks.end());
+  log_->set_pattern("[%H:%M:%S] %v");
+
+  lvl_ = cs_.levels.front();
+  dt_ = lvl_.dt;
+  alpha_ = lvl_.alpha;
+  fctx_.dt = dt_;
+  gravity_ = cs_.gravity;
+  dom_lo_ = cs_.domain.min;
+  dom_hi_ = cs_.domain.max;
+  rng_.seed(cs_.seed);
+
+  std::vector<Material> mats;
+  for (const auto& m : cs_.materials) mats.push_back({m.name, m.youngs_modulus, m.poisson_ratio, m.density});
+  mt_ = MaterialTable(std::move(mats));
+  for (const auto& in : cs_.interactions)
+    mt_.set_interaction(mt_.index_of(in.a), mt_.index_of(in.b), {in.restitution, in.friction, in.rolling_friction});
+
+  choice_.tangential_history = cs_.contact.tangential == "history";
+  choice_.rolling_cdt = cs_.contact.rolling == "cdt";
+  choice_.clamp_normal = cs_.contact.clamp_normal;
+  forces_ = select_force_routine(choice_);
+  keep_history_ = model_keeps_history(choice_);
+  log_->info("level '{}': alpha = {}, dt = {:.4g} s, contact model hertz + tangential {} + rolling {}{}", lvl_.name,
+             alpha_, dt_, cs_.contact.tangential, cs_.contact.rolling,
+             choice_.clamp_normal ? " (normal force clamped)" : "");
+
+  setup_walls();
+  setup_insertions();
+  for (const auto& ps : cs_.particles) {
+    ParticleInit pi;
+    pi.id = next_id_++;
+    pi.material = mt_.index_of(ps.material);
+    pi.radius = ps.radius * alpha_;
+    pi.density = mt_.material(pi.material).density;
+    pi.x = ps.position;
+    pi.v = ps.velocity;
+    pi.omega = ps.omega;
+    add_particle(pi);
+    explicit_mass_ += p_.mass.back();
+  }
+
+  // Stability guard, over every kind of particle this level will hold.
+  std::vector<ParticleKind> kinds;
+  double r_max = 0.0;
+  for (const auto& in : ins_) {
+    const auto& q = in.params();
+    ParticleKind k;
+    k.material = q.material;
+    k.r_min = q.dist == InsertionParams::Dist::Constant ? q.r_const : q.r_min;
+    if (q.dist == InsertionParams::Dist::Discrete) k.r_min = *std::min_element(q.values.begin(), q.values.end());
+    k.r_max = q.dist == InsertionParams::Dist::Constant ? q.r_const : q.r_max;
+    if (q.dist == InsertionParams::Dist::Discrete) k.r_max = *std::max_element(q.values.begin(), q.values.end());
+    k.speed = norm(q.velocity);
+    kinds.push_back(k);
+    r_max = std::max(r_max, k.r_max);
+  }
+  for (size_t i = 0; i < p_.size(); ++i) {
+    kinds.push_back({p_.material[i], p_.radius[i], p_.radius[i], norm(p_.v[i])});
+    r_max = std::max(r_max, p_.radius[i]);
+  }
+  std::vector<int> wall_mats;
+  for (size_t w = 0; w < walls_.walls(); ++w) wall_mats.push_back(walls_.info(w).material);
+  const double g = norm(gravity_);
+  const Vec3 gdir = g > 0.0 ? gravity_ / g : Vec3{0, 0, -1};
+  const double height = std::fabs(dot(dom_hi_ - dom_lo_, gdir));
+  stab_ = check_stability(cs_, lvl_, mt_, kinds, wall_mats, height);
+  for (const auto& l : stab_.lines) log_->info("{}", l);
+
+  skin_ = lvl_.skin > 0.0 ? lvl_.skin : 0.5 * r_max;
+  nl_.set_skin(skin_);
+  log_->info("neighbour search: skin {:.4g} m, rebuild when a particle moved {:.4g} m", skin_, 0.5 * skin_);
+
+  setup_measurements();
+  events_.assign(cs_.events.size(), EventState{});
+  resolve_end_time();
+
+  if (!opt_.out_dir.empty()) {
+    std::filesystem::copy_file(cs_.path, opt_.out_dir / "case.toml",
+                               std::filesystem::copy_options::overwrite_existing);
+    std::filesystem::create_directories(opt_.out_dir / "probes");
+  }
+  if (!opt_.restart.empty()) load_checkpoint(opt_.restart);
+  if (!opt_.out_dir.empty())
+    snaps_ = std::make_unique<io::SnapshotSeries>(opt_.out_dir, "particles", !opt_.restart.empty());
+}
+
+void Level::setup_walls() {
+  // Analytic walls first: WallSet keeps their primitive ids below the meshes'.
+  for (const auto& w : cs_.walls) {
+    if (w.type == config::WallType::Mesh) continue;
+    walls_.add_analytic(w.name, mt_.index_of(w.material), make_analytic(w));
+  }
+  for (const auto& w : cs_.walls) {
+    if (w.type != config::WallType::Mesh) continue;
+    const std::filesystem::path file = std::filesystem::path(cs_.dir) / w.file;
+    auto tris = read_stl(file.string());
+    for (auto& t : tris) {
+      t.a = t.a * w.scale + w.offset;
+      t.b = t.b * w.scale + w.offset;
+      t.c = t.c * w.scale + w.offset;
+    }
+    auto mesh = std::make_shared<const TriangleMesh>(tris, file.string());
+    log_->info("wall '{}': {} triangles from {}", w.name, mesh->triangles(), file.string());
+    walls_.add_mesh(w.name, mt_.index_of(w.material), std::move(mesh));
+  }
+}
+
+void Level::setup_insertions() {
+  const double g = norm(gravity_);
+  for (const auto& s : cs_.insertions) {
+    InsertionParams q;
+    q.name = s.name;
+    q.material = mt_.index_of(s.material);
+    q.density = mt_.material(q.material).density;
+    q.cylinder = s.region.type == config::RegionType::Cylinder;
+    q.lo = s.region.min;
+    q.hi = s.region.max;
+    q.cx = s.region.cx;
+    q.cy = s.region.cy;
+    q.cyl_radius = s.region.radius;
+    switch (s.radius.kind) {
+      case config::RadiusKind::Constant:
+        q.dist = InsertionParams::Dist::Constant;
+        q.r_const = s.radius.value * alpha_;
+        q.r_min = q.r_max = q.r_const;
+        break;
+      case config::RadiusKind::Uniform:
+        q.dist = InsertionParams::Dist::Uniform;
+        q.r_min = s.radius.min * alpha_;
+        q.r_max = s.radius.max * alpha_;
+        break;
+      case config::RadiusKind::Discrete: {
+        q.dist = InsertionParams::Dist::Discrete;
+        double c = 0.0;
+        for (size_t k = 0; k < s.radius.values.size(); ++k) {
+          q.values.push_back(s.radius.values[k] * alpha_);
+          c += s.radius.fractions[k];
+          q.cumulative.push_back(c);
+        }
+        q.r_min = *std::min_element(q.values.begin(), q.values.end());
+        q.r_max = *std::max_element(q.values.begin(), q.values.end());
+        break;
+      }
+    }
+    const double mean_mass =
+        q.density * 4.0 / 3.0 * std::numbers::pi * s.radius.mean_volume_factor() * alpha_ * alpha_ * alpha_;
+    q.target = s.count >= 0 ? s.count : static_cast<int64_t>(std::llround(s.mass / mean_mass));
+    if (s.rate > 0.0) q.rate = s.rate;
+    else if (s.mass_rate > 0.0) q.rate = s.mass_rate / mean_mass;
+    q.start = s.start;
+    q.velocity = s.velocity;
+    q.follow_gap = s.follow_gap;
+    q.follow_height = s.follow_height > 0.0 ? s.follow_height : 10.0 * q.r_max;
+    q.max_attempts = s.max_attempts;
+    // Automatic batch period: the time a batch needs to clear its slab, at least one step.
+    const double slab = s.follow_gap >= 0.0 ? q.follow_height : q.hi.z - q.lo.z;
+    double period = s.interval;
+    if (period <= 0.0) {
+      const double vz = std::fabs(q.velocity.z);
+      period = vz > 0.0 ? slab / vz : std::sqrt(2.0 * slab / std::max(g, 1e-12));
+    }
+    q.interval = std::max(period, dt_);
+    log_->info("insertion '{}': {} particles, {}, batch every {:.4g} s", q.name, q.target,
+               q.rate > 0.0 ? fmt::format("{:.4g} particles/s", q.rate) : std::string("all at once"), q.interval);
+    ins_.emplace_back(q);
+  }
+}
+
+void Level::setup_measurements() {
+  for (const auto& s : cs_.probes) {
+    ProbeParams q;
+    q.name = s.name;
+    q.point = s.point;
+    q.normal = unit(s.normal);
+    q.radius = s.radius;
+    q.sample_interval = 1.0 / s.sample_rate;
+    q.window_start = s.window_start;
+    q.window_end = s.window_end;
+    q.window_known = s.window_event.empty();
+    probes_.emplace_back(q);
+    probe_events_.push_back(s.window_event);
+  }
+  for (const auto& s : cs_.grids) {
+    GridParams q;
+    q.name = s.name;
+    q.origin = s.min;
+    q.h = s.cell_size;
+    q.nx = std::max(1, static_cast<int>(std::ceil((s.max.x - s.min.x) / s.cell_size - 1e-9)));
+    q.ny = std::max(1, static_cast<int>(std::ceil((s.max.y - s.min.y) / s.cell_size - 1e-9)));
+    q.nz = std::max(1, static_cast<int>(std::ceil((s.max.z - s.min.z) / s.cell_size - 1e-9)));
+    GridRun g{CellGrid(q), 1, s.output_interval, s.output_interval, 0, nullptr};
+    const double si = s.sample_interval > 0.0 ? s.sample_interval : s.output_interval;
+    g.sample_every = std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(si / dt_)));
+    if (!opt_.out_dir.empty())
+      g.series = std::make_unique<io::GridSeries>(opt_.out_dir, q.name, q.origin, q.h, q.nx, q.ny, q.nz,
+                                                  !opt_.restart.empty());
+    grids_.push_back(std::move(g));
+  }
+}
+
+void Level::add_particle(const ParticleInit& pi) {
+  p_.add(pi);
+  p_.f.back() = p_.mass.back() * gravity_;
+  next_id_ = std::max(next_id_, pi.id + 1);
+  rebuild_pending_ = true;
+}
+
+void Level::resolve_end_time() {
+  if (cs_.time.end >= 0.0) {
+    end_time_ = cs_.time.end;
+    return;
+  }
+  for (size_t e = 0; e < cs_.events.size(); ++e)
+    if (cs_.events[e].name == cs_.time.end_event && events_[e].fired) end_time_ = events_[e].fired_at + cs_.time.end_plus;
+}
+
+}  // namespace mlcg

@@ -1,0 +1,107 @@
+#include "level/stability.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+namespace mlcg {
+
+namespace {
+double sphere_mass(double r, const Material& m) { return m.density * 4.0 / 3.0 * std::numbers::pi * r * r * r; }
+}  // namespace
+
+StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelSpec& lvl, const MaterialTable& mt,
+                                const std::vector<ParticleKind>& kinds, const std::vector<int>& wall_materials,
+                                double gravity_height) {
+  StabilityReport r;
+  const auto& st = cs.stability;
+  const double dt = lvl.dt;
+  const std::string where = lvl.loc.str() + ": levels[" + lvl.name + "].dt";
+  if (kinds.empty()) {
+    r.lines.push_back("stability: no particles will be inserted; nothing to check");
+    return r;
+  }
+
+  // Rayleigh time of the smallest particle of every material.
+  r.rayleigh_time = std::numeric_limits<double>::infinity();
+  for (const auto& k : kinds) {
+    const double tr = rayleigh_time(k.r_min, mt.material(k.material));
+    if (tr < r.rayleigh_time) { r.rayleigh_time = tr; r.rayleigh_radius = k.r_min; }
+  }
+
+  // Impact speed: given, or the fastest insertion speed plus a free fall over the domain.
+  if (st.max_impact_speed >= 0.0) {
+    r.impact_speed = st.max_impact_speed;
+  } else {
+    const double g = std::sqrt(norm2(cs.gravity));
+    for (const auto& k : kinds)
+      r.impact_speed = std::max(r.impact_speed, std::sqrt(k.speed * k.speed + 2.0 * g * gravity_height));
+    r.impact_speed_estimated = true;
+  }
+  const double v = std::max(r.impact_speed, 1e-6);
+
+  // Hertz contact time and overlap of the smallest partners: particle pairs and particle-wall.
+  r.contact_time = std::numeric_limits<double>::infinity();
+  auto consider = [&](double m_eff, double r_eff, double e_star, double r_small) {
+    r.contact_time = std::min(r.contact_time, hertz_contact_time(m_eff, r_eff, e_star, v));
+    r.overlap_ratio = std::max(r.overlap_ratio, hertz_max_overlap(m_eff, r_eff, e_star, v) / r_small);
+  };
+  for (const auto& a : kinds) {
+    const double ma = sphere_mass(a.r_min, mt.material(a.material));
+    for (const auto& b : kinds) {
+      const auto& c = mt.pair(a.material, b.material);
+      if (!c.defined) continue;
+      const double mb = sphere_mass(b.r_min, mt.material(b.material));
+      consider(ma * mb / (ma + mb), a.r_min * b.r_min / (a.r_min + b.r_min), c.e_star, std::min(a.r_min, b.r_min));
+    }
+    for (int wm : wall_materials) {
+      const auto& c = mt.pair(a.material, wm);
+      if (c.defined) consider(ma, a.r_min, c.e_star, a.r_min);
+    }
+  }
+  r.steps_per_contact = r.contact_time / dt;
+
+  r.lines.push_back(fmt::format("stability: Rayleigh time {:.4g} s (radius {:.4g} m); dt = {:.4g} s is {:.1f} % of it "
+                                "(limit {:.0f} %)",
+                                r.rayleigh_time, r.rayleigh_radius, dt, 100.0 * dt / r.rayleigh_time,
+                                100.0 * st.rayleigh_fraction));
+  r.lines.push_back(fmt::format("stability: Hertz contact time {:.4g} s at impact speed {:.3g} m/s{} = {:.1f} steps "
+                                "(minimum {:.0f}); largest overlap {:.1f} % of the radius (limit {:.0f} %)",
+                                r.contact_time, r.impact_speed, r.impact_speed_estimated ? " (estimated)" : "",
+                                r.steps_per_contact, st.min_steps_per_contact, 100.0 * r.overlap_ratio,
+                                100.0 * st.max_overlap_fraction));
+
+  std::vector<std::string> problems;
+  if (dt > st.rayleigh_fraction * r.rayleigh_time)
+    problems.push_back(fmt::format("dt = {:.4g} s is above {:.0f} % of the Rayleigh time {:.4g} s of the smallest "
+                                   "particle (radius {:.4g} m); use dt <= {:.4g} s",
+                                   dt, 100.0 * st.rayleigh_fraction, r.rayleigh_time, r.rayleigh_radius,
+                                   st.rayleigh_fraction * r.rayleigh_time));
+  if (r.steps_per_contact < st.min_steps_per_contact)
+    problems.push_back(fmt::format("dt = {:.4g} s resolves a Hertz contact at {:.3g} m/s with only {:.1f} steps "
+                                   "(need {:.0f}); use dt <= {:.4g} s",
+                                   dt, r.impact_speed, r.steps_per_contact, st.min_steps_per_contact,
+                                   r.contact_time / st.min_steps_per_contact));
+  if (!problems.empty()) {
+    if (st.dt_override_reason.empty()) {
+      std::string msg = where + ": time step refused: " + problems.front();
+      for (size_t k = 1; k < problems.size(); ++k) msg += "; and " + problems[k];
+      msg += ". To run anyway, set [stability] dt_override_reason = \"why this is safe\".";
+      throw StabilityError(msg);
+    }
+    r.overridden = true;
+    for (const auto& p : problems) r.lines.push_back("stability: OVERRIDDEN (" + st.dt_override_reason + "): " + p);
+  }
+  if (r.overlap_ratio > st.max_overlap_fraction)
+    throw StabilityError(fmt::format(
+        "{}: impacts at {:.3g} m/s{} would overlap {:.1f} % of the radius, above [stability] max_overlap_fraction = "
+        "{:.0f} %; the run would stop at the first such impact. Use a stiffer material, a lower speed, set "
+        "[stability] max_impact_speed if the estimate is too pessimistic, or raise max_overlap_fraction",
+        where, r.impact_speed, r.impact_speed_estimated ? " (estimated from insertion speed and free fall)" : "",
+        100.0 * r.overlap_ratio, 100.0 * st.max_overlap_fraction));
+  return r;
+}
+
+}  // namespace mlcg

@@ -1,0 +1,42 @@
+#pragma once
+// The time-step guard (DESIGN.md §2): before step 1 a level computes the
+// Rayleigh time of its smallest particle and the Hertz contact time and
+// largest overlap at the case's largest expected impact speed, prints them,
+// and refuses a dt that does not resolve them unless the case overrides the
+// guard, saying why.
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "config/case_spec.hpp"
+#include "core/material.hpp"
+
+namespace mlcg {
+
+struct StabilityError : std::runtime_error { using std::runtime_error::runtime_error; };
+
+// A kind of particle the level will hold: material and its smallest and largest radius.
+struct ParticleKind {
+  int material = 0;
+  double r_min = 0.0, r_max = 0.0;
+  double speed = 0.0;  // its initial speed
+};
+
+struct StabilityReport {
+  double rayleigh_time = 0.0;      // of the smallest particle
+  double rayleigh_radius = 0.0;
+  double impact_speed = 0.0;       // used for the Hertz estimates
+  bool impact_speed_estimated = false;
+  double contact_time = 0.0;       // shortest Hertz contact at impact_speed
+  double steps_per_contact = 0.0;
+  double overlap_ratio = 0.0;      // largest Hertz overlap / radius at impact_speed
+  bool overridden = false;
+  std::vector<std::string> lines;  // for the log
+};
+
+// Throws StabilityError naming the case file, line and key when dt is refused.
+StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelSpec& lvl, const MaterialTable& mt,
+                                const std::vector<ParticleKind>& kinds, const std::vector<int>& wall_materials,
+                                double gravity_height);
+
+}  // namespace mlcg

@@ -1,0 +1,75 @@
+#include "measure/probe.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include <fmt/format.h>
+
+namespace mlcg {
+
+void MassFlowProbe::refresh(const Particles& p, double band) {
+  cand_.clear();
+  side_.clear();
+  const double lateral = prm_.radius + band;
+  for (size_t i = 0; i < p.n_local(); ++i) {
+    const Vec3 d = p.x[i] - prm_.point;
+    const double s = dot(d, prm_.normal);
+    if (std::fabs(s) > band) continue;
+    if (norm2(d - s * prm_.normal) > lateral * lateral) continue;
+    cand_.push_back(static_cast<int32_t>(i));
+    side_.push_back(s);
+  }
+}
+
+void MassFlowProbe::check(const Particles& p) {
+  const double r2 = prm_.radius * prm_.radius;
+  for (size_t c = 0; c < cand_.size(); ++c) {
+    const auto i = static_cast<size_t>(cand_[c]);
+    const Vec3 d = p.x[i] - prm_.point;
+    const double s = dot(d, prm_.normal);
+    const double before = side_[c];
+    side_[c] = s;
+    const bool forward = before <= 0.0 && s > 0.0;
+    const bool backward = before > 0.0 && s <= 0.0;
+    if (!forward && !backward) continue;
+    if (norm2(d - s * prm_.normal) > r2) continue;
+    const double m = forward ? p.mass[i] : -p.mass[i];
+    st_.mass += m;
+    st_.total_mass += m;
+  }
+}
+
+void MassFlowProbe::advance(double t) {
+  // Close the sample when t has reached its end (within a small fraction of a step).
+  if (t + 1e-12 * prm_.sample_interval < st_.sample_start + prm_.sample_interval) return;
+  const double span = t - st_.sample_start;
+  st_.samples.push_back({t, span > 0.0 ? st_.mass / span : 0.0});
+  st_.sample_start = t;
+  st_.mass = 0.0;
+}
+
+MassFlowProbe::WindowStats MassFlowProbe::window_stats() const {
+  WindowStats w;
+  if (!prm_.window_known) return w;
+  double sum = 0.0, sum2 = 0.0;
+  for (const auto& s : st_.samples) {
+    const double t0 = s.t_end - prm_.sample_interval;
+    if (t0 < prm_.window_start - 1e-9 || s.t_end > prm_.window_end + 1e-9) continue;
+    sum += s.rate;
+    sum2 += s.rate * s.rate;
+    ++w.samples;
+  }
+  if (w.samples == 0) return w;
+  w.mean = sum / static_cast<double>(w.samples);
+  const double var = sum2 / static_cast<double>(w.samples) - w.mean * w.mean;
+  w.stddev = var > 0.0 ? std::sqrt(var) : 0.0;
+  return w;
+}
+
+std::string MassFlowProbe::csv() const {
+  std::string out = "t,mass_flow_kg_per_s\n";
+  for (const auto& s : st_.samples) out += fmt::format("{:.6f},{:.9g}\n", s.t_end, s.rate);
+  return out;
+}
+
+}  // namespace mlcg

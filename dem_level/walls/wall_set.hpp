@@ -1,0 +1,72 @@
+#pragma once
+// All walls of a level and, per particle, the wall primitives it may touch
+// before the next neighbour-list rebuild (candidates within r + skin). A
+// primitive is an analytic wall or one triangle of a mesh; primitive ids are
+// dense: analytic walls first, then each mesh's triangles. The force kernel
+// (forces/wall_kernel.hpp) walks a particle's candidates only.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/particles.hpp"
+#include "walls/analytic.hpp"
+#include "walls/triangle_mesh.hpp"
+
+namespace mlcg {
+
+struct AnalyticWall {
+  enum class Kind : uint8_t { Plane, Revolution } kind;
+  PlaneWall plane;
+  RevolutionWall rev;
+
+  inline bool closest(const Vec3& x, WallGeom& g) const {
+    return kind == Kind::Plane ? plane.closest(x, g) : rev.closest(x, g);
+  }
+};
+
+class WallSet {
+ public:
+  struct Info {
+    std::string name;
+    int material = 0;
+    bool active = true;
+    bool is_mesh = false;
+    int32_t prim_begin = 0, prim_end = 0;  // primitive id range
+    int mesh = -1;                         // index into meshes() when is_mesh
+  };
+
+  int add_analytic(const std::string& name, int material, const AnalyticWall& w);
+  int add_mesh(const std::string& name, int material, std::shared_ptr<const TriangleMesh> mesh);
+
+  size_t walls() const { return info_.size(); }
+  const Info& info(size_t w) const { return info_[w]; }
+  int find(const std::string& name) const;  // -1 if absent
+  void set_active(size_t w, bool on) { info_[w].active = on; }
+  bool active(size_t w) const { return info_[w].active; }
+
+  int32_t analytic_count() const { return static_cast<int32_t>(analytic_.size()); }
+  const AnalyticWall& analytic(int32_t prim) const { return analytic_[static_cast<size_t>(prim)]; }
+  int wall_of_prim(int32_t prim) const;
+  const TriangleMesh& mesh(int m) const { return *meshes_[static_cast<size_t>(m)]; }
+
+  // Per-particle candidate primitives, grouped by wall (a mesh's triangles are contiguous).
+  std::vector<int32_t> first{0};
+  std::vector<int32_t> prim;
+  std::vector<Vec3> hist;
+
+  void build_candidates(const Particles& p, double skin, bool with_history);
+  void save_history(const Particles& p, ContactHistory& out) const;
+  void load_history(const ContactHistory& in);
+  static int64_t history_key(int32_t prim) { return -1 - static_cast<int64_t>(prim); }
+
+ private:
+  std::vector<Info> info_;
+  std::vector<AnalyticWall> analytic_;
+  std::vector<int> analytic_wall_;  // wall index of each analytic primitive
+  std::vector<std::shared_ptr<const TriangleMesh>> meshes_;
+  int32_t next_prim_ = 0;
+  std::vector<int32_t> scratch_;
+};
+
+}  // namespace mlcg
