@@ -147,7 +147,8 @@ int64_t Inserter::run_batch(Particles& p, const WallSet& walls, std::mt19937_64&
         x = {lo.x + r + (hi.x - lo.x - 2 * r) * u(rng), lo.y + r + (hi.y - lo.y - 2 * r) * u(rng),
              lo.z + r + (hi.z - lo.z - 2 * r) * u(rng)};
       }
-      ok = !grid.overlaps(x, r) && !touches_wall(walls, x, r, scratch);
+      ok = !grid.overlaps(x, r) && !touches_wall(walls, x, r, scratch) &&
+           !walls.crosses(x, {x.x, x.y, prm_.hi.z});
     }
     if (!ok) {
       ++unplaced;

@@ -1,7 +1,9 @@
 #pragma once
 // Pouring particles into a region by simple sequential inhibition (SSI):
 // candidates are drawn uniformly in the region and rejected while they overlap
-// a particle (already present or placed in this batch) or a wall. Particles are
+// a particle (already present or placed in this batch) or a wall, or while
+// the vertical line from them up to the region's ceiling crosses a wall (a
+// poured particle cannot reach a place under a wall, e.g. outside a cone). Particles are
 // requested at a rate, in batches; a particle that cannot be placed in its
 // batch is carried to the next one, and only counted as failed when the
 // insertion stops making progress or ends. Nothing is dropped uncounted:

@@ -1,5 +1,7 @@
 #include "walls/wall_set.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace mlcg {
@@ -42,6 +44,74 @@ int WallSet::wall_of_prim(int32_t p) const {
   for (size_t w = 0; w < info_.size(); ++w)
     if (p >= info_[w].prim_begin && p < info_[w].prim_end) return static_cast<int>(w);
   return -1;
+}
+
+namespace {
+
+// Side of a point relative to a surface of revolution, in its meridian plane:
+// +1 / -1 on either side, 0 where the point projects outside the segment.
+int revolution_side(const RevolutionWall& w, const Vec3& x) {
+  const Vec3 rel = x - w.c;
+  const double s = dot(rel, w.a);
+  const double rho = std::sqrt(norm2(rel - s * w.a));
+  const double dr = w.rho1 - w.rho0, ds = w.s1 - w.s0;
+  const double len2 = dr * dr + ds * ds;
+  const double t = len2 > 0.0 ? ((rho - w.rho0) * dr + (s - w.s0) * ds) / len2 : 0.0;
+  if (t < 0.0 || t > 1.0) return 0;
+  const double c = dr * (s - w.s0) - ds * (rho - w.rho0);
+  return c > 0.0 ? 1 : (c < 0.0 ? -1 : 0);
+}
+
+bool segment_hits_triangle(const Vec3& a, const Vec3& b, const Vec3& p0, const Vec3& p1, const Vec3& p2) {
+  // Moeller-Trumbore on the segment a + t (b - a), t in [0, 1].
+  const Vec3 d = b - a, e1 = p1 - p0, e2 = p2 - p0;
+  const Vec3 h = cross(d, e2);
+  const double det = dot(e1, h);
+  if (std::fabs(det) < 1e-300) return false;
+  const double inv = 1.0 / det;
+  const Vec3 s = a - p0;
+  const double u = dot(s, h) * inv;
+  if (u < 0.0 || u > 1.0) return false;
+  const Vec3 q = cross(s, e1);
+  const double v = dot(d, q) * inv;
+  if (v < 0.0 || u + v > 1.0) return false;
+  const double t = dot(e2, q) * inv;
+  return t >= 0.0 && t <= 1.0;
+}
+
+}  // namespace
+
+bool WallSet::crosses(const Vec3& a, const Vec3& b) const {
+  const double len = std::sqrt(norm2(b - a));
+  for (int32_t k = 0; k < analytic_count(); ++k) {
+    if (!info_[static_cast<size_t>(analytic_wall_[static_cast<size_t>(k)])].active) continue;
+    const AnalyticWall& w = analytic_[static_cast<size_t>(k)];
+    if (w.kind == AnalyticWall::Kind::Plane) {
+      const double da = dot(a - w.plane.p, w.plane.n), db = dot(b - w.plane.p, w.plane.n);
+      if ((da > 0.0) != (db > 0.0)) return true;
+      continue;
+    }
+    // March along the segment; a change of side within the surface's extent is a crossing.
+    const int steps = std::clamp(static_cast<int>(len / 1e-3), 16, 4096);
+    int prev = revolution_side(w.rev, a);
+    for (int q = 1; q <= steps; ++q) {
+      const int side = revolution_side(w.rev, a + (static_cast<double>(q) / steps) * (b - a));
+      if (side != 0 && prev != 0 && side != prev) return true;
+      if (side != 0) prev = side;
+    }
+  }
+  std::vector<int32_t> tris;
+  const Vec3 mid = 0.5 * (a + b);
+  for (const auto& in : info_) {
+    if (!in.is_mesh || !in.active) continue;
+    const TriangleMesh& m = *meshes_[static_cast<size_t>(in.mesh)];
+    m.query(mid, 0.5 * len * 1.0001, tris);
+    for (int32_t t : tris) {
+      const auto v = m.triangle_vertices(t);
+      if (segment_hits_triangle(a, b, m.vertex(v[0]), m.vertex(v[1]), m.vertex(v[2]))) return true;
+    }
+  }
+  return false;
 }
 
 void WallSet::build_candidates(const Particles& p, double skin, bool with_history) {

@@ -55,6 +55,11 @@ class WallSet {
   std::vector<int32_t> prim;
   std::vector<Vec3> hist;
 
+  // True if the segment a-b crosses an active wall (used by insertion: a particle
+  // poured from above can only reach places its vertical line from the ceiling
+  // reaches without crossing a wall).
+  bool crosses(const Vec3& a, const Vec3& b) const;
+
   void build_candidates(const Particles& p, double skin, bool with_history);
   void save_history(const Particles& p, ContactHistory& out) const;
   void load_history(const ContactHistory& in);
