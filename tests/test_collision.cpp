@@ -78,6 +78,7 @@ TEST_P(PairRestitution, EqualsCaseValueWithinPointTwoPercent) {
   const auto [v, alpha] = GetParam();
   const Impact im = pair_impact(v, alpha, 0.5, 0.2, kStepsPerContact);
   ASSERT_TRUE(im.separated);
+  std::printf("pair v = %5.1f m/s alpha = %g: e = %.5f (case 0.5)\n", v, alpha, im.restitution);
   EXPECT_NEAR(im.restitution, 0.5, 0.002 * 0.5) << "v = " << v << " m/s, alpha = " << alpha;
 }
 
@@ -93,6 +94,8 @@ TEST_P(PairElastic, ConservesEnergyAndLastsHertzTime) {
   EXPECT_NEAR(im.ke_after / im.ke_before, 1.0, 1e-6);
   const double r = kRadius * alpha, m = sphere_mass(r, kRho);
   const double tc = hertz_time(0.5 * m, 0.5 * r, kEStarPair, v);
+  std::printf("pair v = %5.1f m/s alpha = %g, e = 1: KE ratio - 1 = %.2e, contact %.4e s (Hertz %.4e s)\n", v,
+              alpha, im.ke_after / im.ke_before - 1.0, im.contact_time, tc);
   EXPECT_NEAR(im.contact_time / tc, 1.0, 0.01) << "measured " << im.contact_time << " s, theory " << tc << " s";
 }
 
@@ -112,6 +115,9 @@ TEST_P(WallImpact, RestitutionEnergyAndContactTime) {
   EXPECT_NEAR(elastic.ke_after / elastic.ke_before, 1.0, 1e-6) << scene;
   const double r = kRadius * alpha, m = sphere_mass(r, kRho);
   const double tc = hertz_time(m, r, kEStarWall, v);
+  std::printf("wall %-6s v = %5.1f m/s alpha = %g: e = %.5f; e = 1: KE ratio - 1 = %.2e, contact/Hertz = %.5f\n",
+              scene.c_str(), v, alpha, damped.restitution, elastic.ke_after / elastic.ke_before - 1.0,
+              elastic.contact_time / tc);
   EXPECT_NEAR(elastic.contact_time / tc, 1.0, 0.01) << scene;
 }
 

@@ -107,6 +107,7 @@ class Level {
   void check_finite(double checksum, const char* what);
   void after_step();              // measurements and outputs at the new time
   void write_outputs(bool final);
+  std::string series_row() const;
   void write_summary(const std::string& status, const std::string& reason) const;
   void progress(bool force);
   std::string describe_particle(size_t i) const;

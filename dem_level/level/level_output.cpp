@@ -70,6 +70,7 @@ RunStatus Level::run() {
   }
   if (status == RunStatus::Completed)
     for (auto& in : ins_) in.abandon_pending();
+
   progress(true);
   write_outputs(true);
   if (!opt_.out_dir.empty() && status != RunStatus::Failed) write_checkpoint(opt_.out_dir / "checkpoint.h5");
@@ -101,10 +102,7 @@ void Level::after_step() {
   }
   const auto& o = cs_.output;
   if (o.stats_interval > 0.0 && t >= next_stats_ - half) {
-    const auto b = mass_balance();
-    series_rows_.push_back(fmt::format("{:.6f},{},{:.9g},{},{},{},{},{},{},{},{}", t, p_.n_local(), kinetic_energy(),
-                                       fctx_.stats.pair_contacts, fctx_.stats.wall_contacts, b.requested, b.inserted,
-                                       b.removed, b.failed, b.pending, rebuilds_));
+    series_rows_.push_back(series_row());
     next_stats_ += o.stats_interval;
   }
   if (o.snapshot_interval > 0.0 && t >= next_snapshot_ - half) {
@@ -126,13 +124,29 @@ void Level::after_step() {
   }
 }
 
+std::string Level::series_row() const {
+  const auto b = mass_balance();
+  return fmt::format("{:.6f},{},{:.9g},{},{},{},{},{},{},{},{}", time(), p_.n_local(), kinetic_energy(),
+                     fctx_.stats.pair_contacts, fctx_.stats.wall_contacts, b.requested, b.inserted, b.removed, b.failed,
+                     b.pending, rebuilds_);
+}
+
 void Level::write_outputs(bool final) {
   if (opt_.out_dir.empty()) return;
   if (final && snaps_ && (snaps_->entries().empty() || snaps_->entries().back().time < time()))
     snaps_->write(time(), step_, p_.n_local(), p_.x.data(), p_.v.data(), p_.omega.data(), p_.radius.data(),
                   p_.id.data());
+  // The file ends with the state at the end of this process (replacing a row of
+  // the same time); that row is not part of the checkpointed series.
+  std::vector<std::string> rows = series_rows_;
+  if (final) {
+    const std::string last = series_row();
+    const auto stamp = [](const std::string& r) { return r.substr(0, r.find(',')); };
+    if (!rows.empty() && stamp(rows.back()) == stamp(last)) rows.back() = last;
+    else rows.push_back(last);
+  }
   std::string csv = kSeriesHeader;
-  for (const auto& r : series_rows_) csv += r + "\n";
+  for (const auto& r : rows) csv += r + "\n";
   io::write_file_atomic(opt_.out_dir / "series.csv", csv);
   for (const auto& pr : probes_) io::write_file_atomic(opt_.out_dir / "probes" / (pr.params().name + ".csv"), pr.csv());
 }

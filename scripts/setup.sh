@@ -1,0 +1,24 @@
+#!/bin/sh
+# Installs MLCG's dependencies from Debian 12 packages (only those missing)
+# and builds Release into build/ (executables in build/bin/). Safe to re-run.
+set -e
+cd "$(dirname "$0")/.."
+
+PACKAGES="build-essential cmake libopenmpi-dev openmpi-bin libeigen3-dev libhdf5-dev hdf5-tools \
+libprotobuf-dev protobuf-compiler libzmq3-dev cppzmq-dev libtomlplusplus-dev libcli11-dev \
+libspdlog-dev libfmt-dev libgtest-dev libbenchmark-dev nlohmann-json3-dev python3-h5py python3-matplotlib"
+
+missing=""
+for p in $PACKAGES; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
+done
+if [ -n "$missing" ]; then
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  echo "setup: installing$missing"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends $missing
+fi
+
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release
+cmake --build build -j "$(nproc)"

@@ -1,0 +1,110 @@
+// The stability guard: a dt that does not resolve the contacts is refused
+// before step 1 with the file, line, key and the fix; an explicit override
+// with a reason is accepted; during the run a NaN or an excessive overlap
+// stops the level within one step, naming the particle, with a final checkpoint.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "scene_support.hpp"
+
+using namespace mlcg;
+using namespace mlcg::test;
+namespace fs = std::filesystem;
+
+namespace {
+std::string refusal(const config::CaseSpec& cs) {
+  try {
+    Level level(cs, quiet());
+  } catch (const StabilityError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(StabilityGuard, DtAboveTwentyPercentOfRayleighIsRefusedWithLocationAndFix) {
+  auto cs = load("silo_small/reference.toml");
+  cs.levels[0].dt = 1.2e-5;  // t_R = 4.79e-5 s: 25 %
+  const std::string msg = refusal(cs);
+  ASSERT_FALSE(msg.empty());
+  EXPECT_NE(msg.find("reference.toml:" + std::to_string(cs.levels[0].loc.line) + ":"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("dt"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("Rayleigh time"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("use dt <= 9.58"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("dt_override_reason"), std::string::npos) << msg;
+}
+
+TEST(StabilityGuard, DtJustBelowTheGuardIsAccepted) {
+  auto cs = load("silo_small/reference.toml");
+  cs.levels[0].dt = 9.5e-6;
+  EXPECT_EQ(refusal(cs), "");
+}
+
+TEST(StabilityGuard, OverrideWithAReasonIsAcceptedAndReported) {
+  auto cs = load("silo_small/reference.toml");
+  cs.levels[0].dt = 1.2e-5;
+  cs.stability.dt_override_reason = "testing the override";
+  Level level(cs, quiet());
+  EXPECT_TRUE(level.stability().overridden);
+}
+
+TEST(StabilityGuard, TooFewStepsPerHertzContactIsRefused) {
+  auto cs = load("collision/head_on.toml");
+  cs.stability.max_impact_speed = 10.0;
+  cs.stability.max_overlap_fraction = 0.5;
+  cs.levels[0].dt = 9e-6;  // below 20 % of Rayleigh, but t_c(10 m/s) = 8.7e-5 s -> ~10 steps
+  cs.stability.min_steps_per_contact = 20;
+  const std::string msg = refusal(cs);
+  EXPECT_NE(msg.find("Hertz contact"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("need 20"), std::string::npos) << msg;
+}
+
+TEST(StabilityGuard, ImpactsThatWouldOverlapTooMuchAreRefused) {
+  auto cs = load("collision/head_on.toml");
+  cs.stability.max_impact_speed = 50.0;  // Hertz overlap ~75 % of the radius for this soft material
+  const std::string msg = refusal(cs);
+  EXPECT_NE(msg.find("max_overlap_fraction"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("50 m/s"), std::string::npos) << msg;
+}
+
+TEST(RunGuard, NonFiniteVelocityStopsWithinOneStepNamingTheParticle) {
+  auto cs = load("collision/head_on.toml");
+  Level level(cs, quiet());
+  level.step_once();
+  level.particles_mut().v[1].y = std::nan("");
+  try {
+    level.step_once();
+    FAIL() << "no stop";
+  } catch (const GuardStop& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("non-finite"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("particle id 1"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("step 1"), std::string::npos) << msg;
+  }
+}
+
+TEST(RunGuard, ExcessiveOverlapStopsTheRunWithACheckpointAndAFailedSummary) {
+  auto cs = load("collision/head_on.toml");
+  cs.particles[0].position = {-0.0007, 0.0, 0.0};  // 50 % overlap of 1.4 mm radii
+  cs.particles[1].position = {0.0007, 0.0, 0.0};
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_guard_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  LevelOptions o = quiet();
+  o.out_dir = dir;
+  Level level(cs, o);
+  EXPECT_EQ(level.run(), RunStatus::Failed);
+  EXPECT_EQ(level.step(), 0u);  // stopped inside the first step
+  EXPECT_TRUE(fs::exists(dir / "checkpoint_failed.h5"));
+  std::ifstream in(dir / "summary.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["status"], "failed");
+  const std::string reason = j["reason"];
+  EXPECT_NE(reason.find("overlap of 100.0 %"), std::string::npos) << reason;
+  EXPECT_NE(reason.find("max_overlap_fraction"), std::string::npos) << reason;
+  fs::remove_all(dir);
+}

@@ -1,0 +1,119 @@
+// Nothing appears or disappears uncounted: at every output row and in the
+// summary, inserted = present + removed and requested = inserted + failed +
+// pending, exactly (integer counts).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "scene_support.hpp"
+
+using namespace mlcg;
+using namespace mlcg::test;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Row {
+  int64_t particles, requested, inserted, removed, failed, pending;
+};
+
+std::vector<Row> read_series(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "t,particles,kinetic_energy_J,pair_contacts,wall_contacts,requested,inserted,removed,failed,"
+                  "pending,rebuilds");
+  std::vector<Row> rows;
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) f.push_back(cell);
+    EXPECT_EQ(f.size(), 11u) << line;
+    if (f.size() != 11) continue;
+    rows.push_back({std::stoll(f[1]), std::stoll(f[5]), std::stoll(f[6]), std::stoll(f[7]), std::stoll(f[8]),
+                    std::stoll(f[9])});
+  }
+  return rows;
+}
+
+void check_balance(const fs::path& dir, bool expect_removed, bool expect_failed) {
+  const auto rows = read_series(dir / "series.csv");
+  ASSERT_GT(rows.size(), 10u);
+  bool removed = false, failed = false;
+  for (const auto& r : rows) {
+    EXPECT_EQ(r.inserted, r.particles + r.removed);
+    EXPECT_EQ(r.requested, r.inserted + r.failed + r.pending);
+    removed = removed || r.removed > 0;
+    failed = failed || r.failed > 0;
+  }
+  EXPECT_EQ(removed, expect_removed);
+  EXPECT_EQ(failed, expect_failed);
+  std::ifstream in(dir / "summary.json");
+  const auto j = nlohmann::json::parse(in);
+  const auto& b = j["mass_balance"];
+  EXPECT_EQ(b["inserted"].get<int64_t>(), b["present"].get<int64_t>() + b["removed"].get<int64_t>());
+  EXPECT_EQ(b["requested"].get<int64_t>(),
+            b["inserted"].get<int64_t>() + b["failed_to_place"].get<int64_t>() + b["pending"].get<int64_t>());
+  EXPECT_NEAR(b["inserted_mass_kg"].get<double>(),
+              b["present_mass_kg"].get<double>() + b["removed_mass_kg"].get<double>(),
+              1e-12 * b["inserted_mass_kg"].get<double>());
+}
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("mlcg_balance_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  return d;
+}
+
+}  // namespace
+
+TEST(MassBalance, HopperFillingAndDischargingBalancesAtEveryOutput) {
+  auto cs = load("quickstart/case.toml");
+  cs.insertions[0].count = 800;
+  cs.events[0].after_insertion = false;
+  cs.events[0].mean_speed_below = -1.0;
+  cs.events[0].at = 0.05;
+  cs.time.end = 0.25;
+  cs.output.snapshot_interval = 0.0;
+  const fs::path dir = fresh_dir("hopper");
+  LevelOptions o = quiet();
+  o.out_dir = dir;
+  Level level(cs, o);
+  ASSERT_EQ(level.run(), RunStatus::Completed);
+  check_balance(dir, true, false);
+  fs::remove_all(dir);
+}
+
+TEST(MassBalance, ParticlesThatCannotBePlacedAreCountedAsFailed) {
+  // A region that holds far fewer particles than requested: the rest must be
+  // reported as failed to place, never silently dropped.
+  auto cs = load("quickstart/case.toml");
+  auto& ins = cs.insertions[0];
+  ins.region.type = config::RegionType::Box;
+  ins.region.min = {-0.008, -0.008, 0.09};
+  ins.region.max = {0.008, 0.008, 0.10};
+  ins.follow_gap = -1.0;
+  ins.rate = -1.0;  // all at once
+  ins.count = 400;
+  cs.events[0].after_insertion = false;
+  cs.events[0].mean_speed_below = -1.0;
+  cs.events[0].at = 0.1;
+  cs.time.end = 0.12;
+  cs.output.snapshot_interval = 0.0;
+  const fs::path dir = fresh_dir("blocked");
+  LevelOptions o = quiet();
+  o.out_dir = dir;
+  Level level(cs, o);
+  ASSERT_EQ(level.run(), RunStatus::Completed);
+  const auto b = level.mass_balance();
+  EXPECT_GT(b.failed, 0);
+  EXPECT_GT(b.inserted, 0);
+  EXPECT_EQ(b.requested, 400);
+  check_balance(dir, false, true);
+  fs::remove_all(dir);
+}
