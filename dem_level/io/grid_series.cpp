@@ -3,18 +3,17 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
-#include <fstream>
 #include <stdexcept>
 
-#include "io/atomic_file.hpp"
 #include "io/h5.hpp"
-#include "io/snapshot_series.hpp"
 
 namespace mlcg::io {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
+
+constexpr SeriesKind kKind{"GridSeries", "grid series", "mlcg-grid-series", "name", true};
 
 // Solver order xx yy zz xy xz yz -> XDMF Tensor6 order xx xy xz yy yz zz.
 constexpr int kToXdmf[6] = {0, 3, 4, 1, 5, 2};
@@ -32,34 +31,12 @@ std::string spec_text(const GridSpec& s) {
 }  // namespace
 
 GridSeries::GridSeries(fs::path run_dir, std::string name, const GridSpec& spec, bool resume)
-    : name_(std::move(name)), spec_(spec) {
-  detail::check_series_name(name_, "GridSeries");
+    : SeriesIndex(kKind, run_dir / "grids", std::move(name)), spec_(spec) {
   if (spec_.nx < 1 || spec_.ny < 1 || spec_.nz < 1 || !(spec_.h > 0.0) || !std::isfinite(spec_.h) ||
       !finite(spec_.origin))
-    throw std::invalid_argument("GridSeries '" + name_ + "': invalid grid " + spec_text(spec_));
-  const fs::path grids = run_dir / "grids";
-  dir_ = grids / name_;
-  xmf_ = grids / (name_ + ".xmf");
-  index_ = dir_ / "index.json";
-  times_ = dir_ / "times.csv";
-  std::error_code ec;
-  fs::create_directories(dir_, ec);
-  if (ec) throw std::runtime_error("GridSeries: cannot create '" + dir_.string() + "': " + ec.message());
-  remove_stale_temps(dir_, name_ + "_");
-  remove_stale_temps(dir_, "index.json");
-  remove_stale_temps(dir_, "times.csv");
-  remove_stale_temps(grids, name_ + ".xmf");
-
-  if (!fs::exists(index_)) return;
-  if (!resume)
-    throw std::runtime_error("GridSeries: '" + index_.string() +
-                             "' already exists; resume the series or use a fresh run directory");
-  std::ifstream in(index_);
+    throw std::invalid_argument("GridSeries '" + this->name() + "': invalid grid " + spec_text(spec_));
   GridSpec old;
-  try {
-    const json j = json::parse(in);
-    if (j.at("format") != "mlcg-grid-series" || j.at("name") != name_)
-      throw std::runtime_error("not a grid series named '" + name_ + "'");
+  const bool resumed = open(resume, [&](const json& j) {
     const json& g = j.at("grid");
     old.origin = {g.at("origin").at(0).get<double>(), g.at("origin").at(1).get<double>(),
                   g.at("origin").at(2).get<double>()};
@@ -67,20 +44,13 @@ GridSeries::GridSeries(fs::path run_dir, std::string name, const GridSpec& spec,
     old.nx = g.at("dims").at(0).get<int>();
     old.ny = g.at("dims").at(1).get<int>();
     old.nz = g.at("dims").at(2).get<int>();
-    for (const auto& e : j.at("entries")) entries_.push_back({e.at("index").get<std::uint64_t>(), e.at("time").get<double>()});
-  } catch (const std::exception& e) {
-    throw std::runtime_error("GridSeries: bad index '" + index_.string() + "': " + e.what());
-  }
-  if (!same_spec(old, spec_))
-    throw std::runtime_error("GridSeries '" + name_ + "': cannot resume, recorded grid " + spec_text(old) +
+  });
+  // Checked before rebuild(), which would describe the old files with the new grid.
+  if (resumed && !same_spec(old, spec_))
+    throw std::runtime_error("GridSeries '" + this->name() + "': cannot resume, recorded grid " + spec_text(old) +
                              " differs from requested " + spec_text(spec_));
-  if (!entries_.empty()) {  // a crash may have left these one entry behind
-    save_times();
-    save_xmf();
-  }
+  rebuild();
 }
-
-fs::path GridSeries::file_path(const Entry& e) const { return dir_ / detail::numbered_name(name_, e.index, ".h5"); }
 
 void GridSeries::write(double time, const std::vector<double>& volume_fraction, const std::vector<Vec3>& mean_velocity,
                        const std::vector<double>& max_speed, const std::vector<double>& stress6,
@@ -89,7 +59,7 @@ void GridSeries::write(double time, const std::vector<double>& volume_fraction, 
   if (!std::isfinite(time)) throw std::invalid_argument("GridSeries::write: non-finite time");
   const auto need = [&](std::size_t got, std::size_t want, const char* what) {
     if (got != want)
-      throw std::invalid_argument("GridSeries '" + name_ + "'::write: " + what + " has " + std::to_string(got) +
+      throw std::invalid_argument("GridSeries '" + name() + "'::write: " + what + " has " + std::to_string(got) +
                                   " values, expected " + std::to_string(want));
   };
   need(volume_fraction.size(), nc, "volume_fraction");
@@ -98,19 +68,16 @@ void GridSeries::write(double time, const std::vector<double>& volume_fraction, 
   need(stress6.size(), 6 * nc, "stress6");
   need(count.size(), nc, "count");
 
-  std::size_t k = 0;
-  while (k < entries_.size() && entries_[k].time < time) ++k;
-  drop_from(k);
+  const Entry e{start_entry(time), time};
 
   std::vector<double> stress(6 * nc);
   for (std::size_t c = 0; c < nc; ++c)
     for (int i = 0; i < 6; ++i) stress[6 * c + i] = stress6[6 * c + kToXdmf[i]];
 
-  const Entry e{entries_.empty() ? 0 : entries_.back().index + 1, time};
   const std::uint64_t nz = spec_.nz, ny = spec_.ny, nx = spec_.nx;
   {
     H5Writer w(file_path(e));
-    w.set_compression(compress_);
+    w.set_compression(compression());
     w.write_shaped("volume_fraction", volume_fraction.data(), {nz, ny, nx});
     w.write_shaped("mean_velocity", reinterpret_cast<const double*>(mean_velocity.data()), {nz, ny, nx, 3});
     w.write_shaped("max_speed", max_speed.data(), {nz, ny, nx});
@@ -130,50 +97,23 @@ void GridSeries::write(double time, const std::vector<double>& volume_fraction, 
     w.set_attr("/", "nz", spec_.nz);
     w.commit();
   }
-  entries_.push_back(e);
-  save_index();
-  save_times();
-  save_xmf();
+  append(e);
 }
 
-void GridSeries::truncate_after(double time) {
-  std::size_t k = 0;
-  while (k < entries_.size() && entries_[k].time <= time) ++k;
-  drop_from(k);
+void GridSeries::header_to_json(json& j) const {
+  j["grid"] = {{"origin", {spec_.origin.x, spec_.origin.y, spec_.origin.z}},
+               {"h", spec_.h},
+               {"dims", {spec_.nx, spec_.ny, spec_.nz}}};
 }
 
-void GridSeries::drop_from(std::size_t k) {
-  if (k >= entries_.size()) return;
-  const std::vector<Entry> dropped(entries_.begin() + static_cast<std::ptrdiff_t>(k), entries_.end());
-  entries_.resize(k);
-  // Unlist first, delete after: a crash in between only leaves orphan files.
-  save_index();
-  save_times();
-  std::error_code ec;
-  if (entries_.empty()) fs::remove(xmf_, ec);
-  else save_xmf();
-  for (const Entry& e : dropped) fs::remove(file_path(e), ec);
+void GridSeries::to_json(json& j, const Entry& e) const { j = {{"index", e.index}, {"time", e.time}}; }
+
+GridSeries::Entry GridSeries::from_json(const json& j) const {
+  return {j.at("index").get<std::uint64_t>(), j.at("time").get<double>()};
 }
 
-void GridSeries::save_index() const {
-  json arr = json::array();
-  for (const Entry& e : entries_) arr.push_back({{"index", e.index}, {"time", e.time}});
-  const json grid = {{"origin", {spec_.origin.x, spec_.origin.y, spec_.origin.z}},
-                     {"h", spec_.h},
-                     {"dims", {spec_.nx, spec_.ny, spec_.nz}}};
-  const json j = {{"format", "mlcg-grid-series"}, {"version", 1}, {"name", name_}, {"grid", grid}, {"entries", arr}};
-  write_file_atomic(index_, j.dump(1) + "\n");
-}
-
-void GridSeries::save_times() const {
-  std::string s = "index,time\n";
-  for (const Entry& e : entries_) s += std::to_string(e.index) + "," + detail::format_double(e.time) + "\n";
-  write_file_atomic(times_, s);
-}
-
-void GridSeries::save_xmf() const {
-  const std::string nz = std::to_string(spec_.nz), ny = std::to_string(spec_.ny), nx = std::to_string(spec_.nx);
-  const std::string cells = nz + " " + ny + " " + nx;
+std::string GridSeries::xdmf_grid(const Entry&, const std::string& file) const {
+  const std::string cells = std::to_string(spec_.nz) + " " + std::to_string(spec_.ny) + " " + std::to_string(spec_.nx);
   const std::string nodes =
       std::to_string(spec_.nz + 1) + " " + std::to_string(spec_.ny + 1) + " " + std::to_string(spec_.nx + 1);
   const std::string h = detail::format_double(spec_.h);
@@ -181,32 +121,25 @@ void GridSeries::save_xmf() const {
   const std::string origin = detail::format_double(spec_.origin.z) + " " + detail::format_double(spec_.origin.y) +
                              " " + detail::format_double(spec_.origin.x);
   std::string g;
-  for (const Entry& e : entries_) {
-    const std::string name = detail::numbered_name(name_, e.index, "");
-    const std::string file = name_ + "/" + name + ".h5:/";
-    g += "      <Grid Name=\"" + name + "\" GridType=\"Uniform\">\n";
-    g += "        <Time Value=\"" + detail::format_double(e.time) + "\"/>\n";
-    g += "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" + nodes + "\"/>\n";
-    g += "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n";
-    g += "          <DataItem Name=\"Origin\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
-         origin + "</DataItem>\n";
-    g += "          <DataItem Name=\"Spacing\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
-         h + " " + h + " " + h + "</DataItem>\n";
-    g += "        </Geometry>\n";
-    const auto attribute = [&](const char* aname, const char* type, const std::string& dims) {
-      g += std::string("        <Attribute Name=\"") + aname + "\" AttributeType=\"" + type + "\" Center=\"Cell\">\n";
-      g += "          <DataItem Dimensions=\"" + dims + "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" +
-           file + aname + "</DataItem>\n";
-      g += "        </Attribute>\n";
-    };
-    attribute("volume_fraction", "Scalar", cells);
-    attribute("mean_velocity", "Vector", cells + " 3");
-    attribute("max_speed", "Scalar", cells);
-    attribute("stress", "Tensor6", cells + " 6");
-    attribute("count", "Scalar", cells);
-    g += "      </Grid>\n";
-  }
-  write_file_atomic(xmf_, detail::xdmf_document(name_, g));
+  g += "        <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" + nodes + "\"/>\n";
+  g += "        <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n";
+  g += "          <DataItem Name=\"Origin\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
+       origin + "</DataItem>\n";
+  g += "          <DataItem Name=\"Spacing\" Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" +
+       h + " " + h + " " + h + "</DataItem>\n";
+  g += "        </Geometry>\n";
+  const auto attribute = [&](const char* aname, const char* type, const std::string& dims) {
+    g += std::string("        <Attribute Name=\"") + aname + "\" AttributeType=\"" + type + "\" Center=\"Cell\">\n";
+    g += "          <DataItem Dimensions=\"" + dims + "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" +
+         file + aname + "</DataItem>\n";
+    g += "        </Attribute>\n";
+  };
+  attribute("volume_fraction", "Scalar", cells);
+  attribute("mean_velocity", "Vector", cells + " 3");
+  attribute("max_speed", "Scalar", cells);
+  attribute("stress", "Tensor6", cells + " 6");
+  attribute("count", "Scalar", cells);
+  return g;
 }
 
 }  // namespace mlcg::io

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/vec3.hpp"
+#include "io/series_index.hpp"
 
 namespace mlcg::io {
 
@@ -28,12 +29,11 @@ struct GridSpec {
   std::size_t cells() const { return static_cast<std::size_t>(nx) * ny * nz; }
 };
 
-class GridSeries {
+// entries(), size(), file_path(), xmf_path(), directory(), truncate_after()
+// and set_compression() come from SeriesIndex.
+class GridSeries : public SeriesIndex<SeriesEntry> {
  public:
-  struct Entry {
-    std::uint64_t index = 0;
-    double time = 0.0;
-  };
+  using Entry = SeriesEntry;
 
   // Same resume rules as SnapshotSeries; on resume the recorded grid must equal `spec`.
   GridSeries(std::filesystem::path run_dir, std::string name, const GridSpec& spec, bool resume = false);
@@ -47,27 +47,15 @@ class GridSeries {
              const std::vector<double>& max_speed, const std::vector<double>& stress6,
              const std::vector<double>& count);
 
-  void truncate_after(double time);  // drops entries with time > `time`
-
-  void set_compression(bool on) { compress_ = on; }
   const GridSpec& spec() const { return spec_; }
-  const std::vector<Entry>& entries() const { return entries_; }
-  std::size_t size() const { return entries_.size(); }
-  std::filesystem::path file_path(const Entry& e) const;
-  const std::filesystem::path& xmf_path() const { return xmf_; }
-  const std::filesystem::path& directory() const { return dir_; }
 
  private:
-  void drop_from(std::size_t k);
-  void save_index() const;
-  void save_times() const;
-  void save_xmf() const;
+  void header_to_json(nlohmann::json& j) const override;
+  void to_json(nlohmann::json& j, const Entry& e) const override;
+  Entry from_json(const nlohmann::json& j) const override;
+  std::string xdmf_grid(const Entry& e, const std::string& file) const override;
 
-  std::filesystem::path dir_, xmf_, index_, times_;
-  std::string name_;
   GridSpec spec_;
-  std::vector<Entry> entries_;
-  bool compress_ = false;
 };
 
 }  // namespace mlcg::io

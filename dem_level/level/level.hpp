@@ -160,7 +160,7 @@ class Level {
   std::shared_ptr<spdlog::logger> log_;
   std::unique_ptr<io::SnapshotSeries> snaps_;
   std::vector<std::string> series_rows_;
-  double wall_start_ = 0.0, last_progress_ = -1e300;
+  double wall_start_ = 0.0, last_progress_ = -1e300, last_progress_t_ = 0.0;
   double wall_seconds_before_ = 0.0;  // from earlier processes of a restarted run
 };
 

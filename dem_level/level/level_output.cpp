@@ -214,14 +214,15 @@ void Level::progress(bool force) {
   if (opt_.quiet) return;
   const double now = now_seconds();
   if (!force && now - last_progress_ < cs_.time.progress_interval) return;
-  static thread_local double last_t = 0.0, last_wall = 0.0;
   const double wall = now - wall_start_;
   const double t = time();
   const double rate = wall > 0.0 ? static_cast<double>(particle_steps_) / (wall + wall_seconds_before_) : 0.0;
   // ETA from the simulated-time speed of the last interval.
   std::string eta = "ETA ?";
-  if (end_time_ >= 0.0 && last_progress_ > -1e299 && now > last_wall && t > last_t) {
-    const double speed = (t - last_t) / (now - last_wall);
+  if (end_time_ >= 0.0 && t >= end_time_ - 0.5 * dt_) {
+    eta = "done";
+  } else if (end_time_ >= 0.0 && last_progress_ > -1e299 && now > last_progress_ && t > last_progress_t_) {
+    const double speed = (t - last_progress_t_) / (now - last_progress_);
     eta = "ETA " + human_duration((end_time_ - t) / speed);
   } else if (end_time_ < 0.0) {
     eta = fmt::format("end: event '{}' + {} s", cs_.time.end_event, cs_.time.end_plus);
@@ -229,8 +230,7 @@ void Level::progress(bool force) {
   log_->info("t = {:.4f} s{} | {} particles | {:.3g} particle-steps/s | {}", t,
              end_time_ >= 0.0 ? fmt::format(" / {:.4f} s ({:.0f} %)", end_time_, 100.0 * t / end_time_) : "",
              p_.n_local(), rate, eta);
-  last_t = t;
-  last_wall = now;
+  last_progress_t_ = t;
   last_progress_ = now;
 }
 
