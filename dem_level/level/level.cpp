@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "forces/integrator.hpp"
+#include "level/phase_timer.hpp"
 
 namespace mlcg {
 
@@ -28,6 +29,14 @@ bool stop_requested() { return g_stop.load(); }
 
 void Level::pre_step() {
   const double t = time();
+  if (!events_.empty()) {
+    PhaseTimer timer(times_.measure);
+    check_events(t);
+  }
+  insert_due(t);
+}
+
+void Level::check_events(double t) {
   const double half = 0.5 * dt_;
   for (size_t e = 0; e < events_.size(); ++e) {
     auto& es = events_[e];
@@ -58,7 +67,10 @@ void Level::pre_step() {
       fire_event(e);
     }
   }
+}
 
+void Level::insert_due(double t) {
+  PhaseTimer timer(times_.insert);
   for (auto& in : ins_) {
     if (!in.due(t, dt_)) continue;
     const size_t before = p_.size();
@@ -160,20 +172,35 @@ void Level::check_finite(double checksum, const char* what) {
 
 void Level::step_once() {
   pre_step();
-  check_finite(integrate_first_half(p_, dt_), "position");
-  for (auto& pr : probes_) pr.check(p_);
-  if (rebuild_pending_ || nl_.needs_rebuild(p_)) rebuild();
-  init_forces(p_, gravity_);
+  {
+    PhaseTimer t(times_.integrate);
+    check_finite(integrate_first_half(p_, dt_), "position");
+  }
+  if (!probes_.empty()) {
+    PhaseTimer t(times_.measure);
+    for (auto& pr : probes_) pr.check(p_);
+  }
+  {
+    PhaseTimer t(times_.neighbor);
+    if (rebuild_pending_ || nl_.needs_rebuild(p_)) rebuild();
+  }
   bool stress = false;
   for (const auto& g : grids_) stress = stress || (step_ + 1) % g.sample_every == 0;
-  forces_(fctx_, stress);
+  {
+    PhaseTimer t(times_.force);
+    init_forces(p_, gravity_);
+    forces_(fctx_, stress);
+  }
   const auto& st = fctx_.stats;
   if (st.max_overlap_ratio > cs_.stability.max_overlap_fraction)
     throw GuardStop(fmt::format("overlap of {:.1f} % of the radius (limit [stability] max_overlap_fraction = {:.0f} "
                                 "%) at {}: the time step is too large for this impact or the material too soft",
                                 100.0 * st.max_overlap_ratio, 100.0 * cs_.stability.max_overlap_fraction,
                                 describe_particle(static_cast<size_t>(st.worst_particle))));
-  check_finite(integrate_second_half(p_, dt_), "velocity");
+  {
+    PhaseTimer t(times_.integrate);
+    check_finite(integrate_second_half(p_, dt_), "velocity");
+  }
   ++step_;
   ++steps_this_process_;
   particle_steps_ += p_.n_local();
@@ -209,6 +236,22 @@ double Level::kinetic_energy() const {
   for (size_t i = 0; i < p_.n_local(); ++i)
     e += 0.5 * p_.mass[i] * norm2(p_.v[i]) + 0.5 / p_.inv_inertia[i] * norm2(p_.omega[i]);
   return e;
+}
+
+}  // namespace mlcg
+
+namespace mlcg {
+
+size_t Level::memory_bytes() const {
+  auto bytes = [](const auto& v) { return v.capacity() * sizeof(typename std::decay_t<decltype(v)>::value_type); };
+  size_t b = bytes(p_.x) + bytes(p_.v) + bytes(p_.f) + bytes(p_.omega) + bytes(p_.torque) + bytes(p_.radius) +
+             bytes(p_.mass) + bytes(p_.inv_mass) + bytes(p_.inv_inertia) + bytes(p_.id) + bytes(p_.material);
+  b += bytes(nl_.first) + bytes(nl_.neigh) + bytes(nl_.hist) + nl_.extra_bytes();
+  b += bytes(walls_.first) + bytes(walls_.prim) + bytes(walls_.hist);
+  b += bytes(pair_hist_.first) + bytes(pair_hist_.key) + bytes(pair_hist_.value);
+  b += bytes(wall_hist_.first) + bytes(wall_hist_.key) + bytes(wall_hist_.value);
+  b += bytes(stress6_);
+  return b;
 }
 
 }  // namespace mlcg

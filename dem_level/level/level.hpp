@@ -40,6 +40,18 @@ struct LevelOptions {
 // Raised when the level stops on a guard: NaN/inf or an excessive overlap.
 struct GuardStop : std::runtime_error { using std::runtime_error::runtime_error; };
 
+// Wall seconds spent per phase of the step loop (for benchmarks and reports).
+struct PhaseTimes {
+  double integrate = 0.0;  // both velocity-Verlet halves and the NaN guard
+  double neighbor = 0.0;   // rebuilds: removal, sorting, binning, lists, wall candidates
+  double force = 0.0;      // pair and wall contact kernels
+  double comm = 0.0;       // exchanges between MPI ranks
+  double measure = 0.0;    // probes, cell grids, event conditions
+  double insert = 0.0;     // insertion batches
+  double output = 0.0;     // series, snapshots, checkpoints
+  double total() const { return integrate + neighbor + force + comm + measure + insert + output; }
+};
+
 enum class RunStatus { Completed, StepLimit, Interrupted, Failed };
 const char* to_string(RunStatus s);
 
@@ -73,6 +85,12 @@ class Level {
   MassBalance mass_balance() const;
   double kinetic_energy() const;
   const StabilityReport& stability() const { return stab_; }
+  const PhaseTimes& phase_times() const { return times_; }
+  void reset_phase_times() { times_ = PhaseTimes{}; }
+  uint64_t rebuilds() const { return rebuilds_; }
+  size_t neighbor_pairs() const { return nl_.pairs(); }
+  // Heap bytes held for particles, contact lists, history and bins (capacities).
+  size_t memory_bytes() const;
   const config::CaseSpec& spec() const { return cs_; }
   // Cell-grid averages since the last output of grid g (resets them).
   GridAverages take_grid_averages(size_t g) { return grids_[g].grid.take_averages(); }
@@ -102,6 +120,8 @@ class Level {
   void load_checkpoint(const std::filesystem::path& path);
 
   void pre_step();                // events and insertion at the current time
+  void check_events(double t);
+  void insert_due(double t);
   void fire_event(size_t e);
   void rebuild();
   void check_finite(double checksum, const char* what);
@@ -160,6 +180,7 @@ class Level {
   std::shared_ptr<spdlog::logger> log_;
   std::unique_ptr<io::SnapshotSeries> snaps_;
   std::vector<std::string> series_rows_;
+  PhaseTimes times_;
   double wall_start_ = 0.0, last_progress_ = -1e300, last_progress_t_ = 0.0;
   double wall_seconds_before_ = 0.0;  // from earlier processes of a restarted run
 };

@@ -12,6 +12,7 @@
 #include "io/grid_series.hpp"
 #include "io/snapshot_series.hpp"
 #include "level/level.hpp"
+#include "level/phase_timer.hpp"
 
 namespace mlcg {
 
@@ -90,16 +91,20 @@ RunStatus Level::run() {
 void Level::after_step() {
   const double t = time();
   const double half = 0.5 * dt_;
-  for (auto& pr : probes_) pr.advance(t);
-  for (auto& g : grids_) {
-    if (step_ % g.sample_every == 0) g.grid.sample(p_, stress6_);
-    if (t >= g.next_output - half) {
-      const GridAverages a = g.grid.take_averages();
-      if (g.series) g.series->write(t, a.volume_fraction, a.mean_velocity, a.max_speed, a.stress6, a.count);
-      g.next_output += g.output_interval;
-      ++g.outputs;
+  {
+    PhaseTimer measure(times_.measure);
+    for (auto& pr : probes_) pr.advance(t);
+    for (auto& g : grids_) {
+      if (step_ % g.sample_every == 0) g.grid.sample(p_, stress6_);
+      if (t >= g.next_output - half) {
+        const GridAverages a = g.grid.take_averages();
+        if (g.series) g.series->write(t, a.volume_fraction, a.mean_velocity, a.max_speed, a.stress6, a.count);
+        g.next_output += g.output_interval;
+        ++g.outputs;
+      }
     }
   }
+  PhaseTimer output(times_.output);
   const auto& o = cs_.output;
   if (o.stats_interval > 0.0 && t >= next_stats_ - half) {
     series_rows_.push_back(series_row());

@@ -32,6 +32,7 @@ class CellBins {
   // Particles of cell c: sorted[start[c] .. start[c+1]).
   const std::vector<int32_t>& start() const { return start_; }
   const std::vector<int32_t>& sorted() const { return sorted_; }
+  size_t bytes() const { return (start_.capacity() + sorted_.capacity() + cell_.capacity()) * sizeof(int32_t); }
 
  private:
   Vec3 lo_;
@@ -60,6 +61,7 @@ class NeighborList {
   void load_history(const Particles& p, const ContactHistory& in);
 
   const CellBins& bins() const { return bins_; }
+  size_t extra_bytes() const { return x_build_.capacity() * sizeof(Vec3) + bins_.bytes(); }
   size_t pairs() const { return neigh.size(); }
   uint64_t builds() const { return builds_; }
   void set_builds(uint64_t b) { builds_ = b; }
