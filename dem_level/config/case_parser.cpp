@@ -223,6 +223,16 @@ void check_pairs(const Table& root, const CaseSpec& spec) {
         explicit_particles[i].fail("material", missing(p, q, "particles[" + std::to_string(i) + "] meets " +
                                                                  (p == q ? "particles of its own material" : "'" + q + "' particles")));
   }
+  if (spec.initial) {
+    const std::string& p = spec.initial->material;
+    if (std::find(particle.begin(), particle.end(), p) == particle.end()) {
+      particle.push_back(p);
+      const auto init = root.table("initial");
+      for (const std::string& q : particle)
+        if (!defined(p, q)) init->fail("material", missing(p, q, "the initial particles meet " +
+                                                                 (p == q ? std::string("each other") : "'" + q + "' particles")));
+    }
+  }
   const auto walls = array_of_tables(root, "walls");
   for (size_t w = 0; w < spec.walls.size(); ++w)
     for (const std::string& p : particle)
@@ -252,7 +262,7 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   }
   const Table root(doc, tbl, "");
   root.allow({"title", "seed", "gravity", "materials", "interactions", "contact", "levels", "domain", "walls",
-              "insertion", "particles", "events", "probes", "grids", "output", "stability", "time"},
+              "insertion", "particles", "initial", "events", "probes", "grids", "output", "stability", "time"},
              "the top level");
   for (const char* k : {"materials", "interactions", "levels"})
     if (!root.has(k)) fail(doc, 1, k, "missing required table; add at least one [[" + std::string(k) + "]] entry");
@@ -279,6 +289,7 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   read_walls(root, spec, names);
   read_insertions(root, spec, names);
   read_particles(root, spec, names);
+  read_initial(root, spec, names);
   read_events(root, spec, names);
   read_probes(root, spec, names);
   read_grids(root, spec, names);

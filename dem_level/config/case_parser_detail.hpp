@@ -119,6 +119,7 @@ struct Names {
 void read_walls(const Table& root, CaseSpec& spec, Names& names);
 void read_insertions(const Table& root, CaseSpec& spec, Names& names);
 void read_particles(const Table& root, CaseSpec& spec, Names& names);
+void read_initial(const Table& root, CaseSpec& spec, Names& names);
 void read_events(const Table& root, CaseSpec& spec, Names& names);
 void read_probes(const Table& root, CaseSpec& spec, Names& names);
 void read_grids(const Table& root, CaseSpec& spec, Names& names);

@@ -401,3 +401,23 @@ void read_particles(const Table& root, CaseSpec& spec, Names& names) {
 }
 
 }  // namespace mlcg::config::detail
+
+namespace mlcg::config::detail {
+
+// ---- [initial] -----------------------------------------------------------------
+void read_initial(const Table& root, CaseSpec& spec, Names& names) {
+  const auto t = root.table("initial");
+  if (!t) return;
+  t->allow({"file", "material"}, "[initial]");
+  InitialSpec in;
+  const std::string file = t->required_string("file", "an HDF5 particle snapshot (e.g. a run's particles/particles_000010.h5)");
+  const std::filesystem::path path = std::filesystem::path(spec.dir) / file;
+  t->check("file", std::filesystem::is_regular_file(path), "'" + path.string() + "' does not exist or is not a file");
+  in.file = path.string();
+  in.material = t->required_string("material", "the name of a [[materials]] entry");
+  check_reference(*t, "material", in.material, names.materials, "material");
+  in.loc = t->loc();
+  spec.initial = in;
+}
+
+}  // namespace mlcg::config::detail

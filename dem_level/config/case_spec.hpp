@@ -180,6 +180,12 @@ struct StabilitySpec {             // [stability]
   std::string dt_override_reason;  // dt_override_reason: set to accept a dt above the guard, saying why
 };
 
+struct InitialSpec {               // [initial] start from particles saved in a snapshot file
+  std::string file;                // file: an HDF5 particle snapshot (run/particles/*.h5), relative to the case
+  std::string material;            // material of those particles
+  SourceLoc loc;
+};
+
 struct CaseSpec {
   std::string path;                // the case file as given
   std::string dir;                 // its folder (relative files resolve here)
@@ -194,6 +200,7 @@ struct CaseSpec {
   std::vector<WallSpec> walls;
   std::vector<InsertionSpec> insertions;
   std::vector<ParticleSpec> particles;
+  std::optional<InitialSpec> initial;
   std::vector<EventSpec> events;
   std::vector<ProbeSpec> probes;
   std::vector<GridSpec> grids;

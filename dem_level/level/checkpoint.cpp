@@ -42,6 +42,8 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   w.set_attr("/", "next_id", next_id_);
   w.set_attr("/", "removed", removed_);
   w.set_attr("/", "removed_mass", removed_mass_);
+  w.set_attr("/", "explicit_count", explicit_count_);
+  w.set_attr("/", "explicit_mass", explicit_mass_);
   w.set_attr("/", "particle_steps", particle_steps_);
   w.set_attr("/", "max_particles", static_cast<uint64_t>(max_particles_));
   w.set_attr("/", "rebuilds", rebuilds_);
@@ -163,6 +165,8 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   next_id_ = r.attr_int64("/", "next_id");
   removed_ = r.attr_int64("/", "removed");
   removed_mass_ = r.attr_double("/", "removed_mass");
+  explicit_count_ = r.attr_int64("/", "explicit_count");
+  explicit_mass_ = r.attr_double("/", "explicit_mass");
   particle_steps_ = r.attr_uint64("/", "particle_steps");
   max_particles_ = r.attr_uint64("/", "max_particles");
   rebuilds_ = r.attr_uint64("/", "rebuilds");

@@ -220,9 +220,8 @@ MassBalance Level::mass_balance() const {
     b.failed_mass += s.failed_mass_estimate;
   }
   // Particles placed explicitly by the case count as requested and inserted.
-  const auto explicit_n = static_cast<int64_t>(cs_.particles.size());
-  b.requested += explicit_n;
-  b.inserted += explicit_n;
+  b.requested += explicit_count_;
+  b.inserted += explicit_count_;
   b.inserted_mass += explicit_mass_;
   b.present = static_cast<int64_t>(p_.n_local());
   b.removed = removed_;

@@ -118,6 +118,7 @@ class Level {
   void setup_insertions();
   void setup_measurements();
   void load_checkpoint(const std::filesystem::path& path);
+  void load_initial_state();
 
   void pre_step();                // events and insertion at the current time
   void check_events(double t);
@@ -163,7 +164,8 @@ class Level {
   uint64_t step_ = 0;
   int64_t next_id_ = 0;
   int64_t removed_ = 0;
-  double explicit_mass_ = 0.0;      // mass of the case's [[particles]]
+  int64_t explicit_count_ = 0;      // the case's [[particles]] and [initial] particles
+  double explicit_mass_ = 0.0;
   double removed_mass_ = 0.0;
   uint64_t particle_steps_ = 0;
   size_t max_particles_ = 0;

@@ -185,6 +185,15 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
   lv["impact_speed"] = stab_.impact_speed;
   lv["steps_per_contact"] = stab_.steps_per_contact;
   lv["dt_guard_overridden"] = stab_.overridden;
+  // Where the time went, and what the neighbour search and memory look like now.
+  const double n_now = static_cast<double>(std::max<size_t>(1, p_.n_local()));
+  lv["performance"] = {
+      {"seconds", {{"integrate", times_.integrate}, {"neighbor", times_.neighbor}, {"force", times_.force},
+                   {"comm", times_.comm}, {"measure", times_.measure}, {"insert", times_.insert},
+                   {"output", times_.output}}},
+      {"rebuilds_per_1000_steps", step_ > 0 ? 1000.0 * static_cast<double>(rebuilds_) / static_cast<double>(step_) : 0.0},
+      {"neighbour_pairs_per_particle", static_cast<double>(nl_.pairs()) / n_now},
+      {"bytes_per_particle", static_cast<double>(memory_bytes()) / n_now}};
   j["levels"] = json::array({lv});
   json probes = json::array();
   for (const auto& pr : probes_) {

@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "io/grid_series.hpp"
+#include "io/h5.hpp"
 #include "io/snapshot_series.hpp"
 #include "level/level.hpp"
 #include "walls/stl_reader.hpp"
@@ -124,8 +125,10 @@ void Level::setup() {
     pi.v = ps.velocity;
     pi.omega = ps.omega;
     add_particle(pi);
+    ++explicit_count_;
     explicit_mass_ += p_.mass.back();
   }
+  if (cs_.initial && opt_.restart.empty()) load_initial_state();
 
   // Stability guard, over every kind of particle this level will hold.
   std::vector<ParticleKind> kinds;
@@ -284,6 +287,33 @@ void Level::setup_measurements() {
                                                   !opt_.restart.empty());
     grids_.push_back(std::move(g));
   }
+}
+
+void Level::load_initial_state() {
+  const auto& in = *cs_.initial;
+  io::H5Reader r(in.file);
+  const auto x = r.read_vec3("position");
+  const auto v = r.read_vec3("velocity");
+  const auto w = r.read_vec3("omega");
+  const auto rad = r.read<double>("radius");
+  const auto ids = r.read<int64_t>("id");
+  if (v.size() != x.size() || w.size() != x.size() || rad.size() != x.size() || ids.size() != x.size())
+    throw std::runtime_error(in.file + ": position, velocity, omega, radius and id differ in length");
+  const int mat = mt_.index_of(in.material);
+  for (size_t i = 0; i < x.size(); ++i) {
+    ParticleInit pi;
+    pi.id = ids[i];
+    pi.material = mat;
+    pi.radius = rad[i];
+    pi.density = mt_.material(mat).density;
+    pi.x = x[i];
+    pi.v = v[i];
+    pi.omega = w[i];
+    add_particle(pi);
+    ++explicit_count_;
+    explicit_mass_ += p_.mass.back();
+  }
+  log_->info("initial state: {} particles from {}", x.size(), in.file);
 }
 
 void Level::add_particle(const ParticleInit& pi) {
