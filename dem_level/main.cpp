@@ -31,8 +31,6 @@ int main(int argc, char** argv) {
     if (ranks != cs.levels.front().ranks)
       throw std::runtime_error("dem_level was started on " + std::to_string(ranks) + " MPI ranks but the case asks for " +
                                std::to_string(cs.levels.front().ranks));
-    if (ranks > 1)
-      throw std::runtime_error("MPI domain decomposition is not available yet: set [[levels]] ranks = 1");
     mlcg::install_signal_handlers();
     mlcg::LevelOptions opt;
     opt.out_dir = out_dir;

@@ -67,3 +67,24 @@ TEST(Launcher, RefusesABadCaseWithFileLineAndKey) {
   fs::remove(bad);
   fs::remove(log);
 }
+
+TEST(Launcher, StartsAMultiRankLevelThroughMpirun) {
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_launch2_" + std::to_string(::getpid()));
+  const fs::path cfile = dir.string() + ".toml";
+  fs::remove_all(dir);
+  {
+    std::ifstream src(kSrc + "/cases/collision/head_on.toml");
+    std::string text((std::istreambuf_iterator<char>(src)), std::istreambuf_iterator<char>());
+    text.replace(text.find("dt = 1e-7"), 9, "dt = 1e-7\nranks = 2");
+    std::ofstream(cfile) << text;
+  }
+  ASSERT_EQ(run(kBin + "/mlcg run " + cfile.string() + " --out " + dir.string() + " --quiet > /dev/null 2>&1"), 0);
+  std::ifstream in(dir / "summary.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["status"], "completed");
+  EXPECT_EQ(j["levels"][0]["ranks"], 2);
+  EXPECT_EQ(j["levels"][0]["performance"]["ranks"], 2);
+  EXPECT_EQ(j["levels"][0]["particles_final"], 2);
+  fs::remove_all(dir);
+  fs::remove(cfile);
+}

@@ -94,20 +94,43 @@ void read_levels(const Table& root, CaseSpec& spec, Names& names) {
   const auto tables = array_of_tables(root, "levels");
   for (size_t i = 0; i < tables.size(); ++i) {
     const Table& t = tables[i];
-    t.allow({"name", "alpha", "dt", "ranks", "skin"});
+    t.allow({"name", "alpha", "dt", "dt_alpha1", "ranks", "skin", "processors", "balance"});
     LevelSpec l;
     l.name = t.has("name") ? t.required_string("name", "the level's name") : "level" + std::to_string(i);
     names.levels.add(t, l.name);
     l.alpha = t.number("alpha", l.alpha);
     t.check("alpha", l.alpha >= 1.0, num(l.alpha) + " is below 1; the coarse-grain ratio alpha must be >= 1");
-    l.dt = t.required_number("dt", "the time step in s (> 0)");
-    t.positive("dt", l.dt, "s");
+    if (t.has("dt") && t.has("dt_alpha1"))
+      t.fail("dt_alpha1", "both dt and dt_alpha1 given; give dt (this level's step) or dt_alpha1 (the step at "
+                          "alpha = 1, scaled by alpha)");
+    if (t.has("dt_alpha1")) {
+      l.dt_alpha1 = t.required_number("dt_alpha1", "the time step at alpha = 1 in s (> 0)");
+      t.positive("dt_alpha1", l.dt_alpha1, "s");
+      l.dt = l.dt_alpha1 * l.alpha;
+    } else {
+      l.dt = t.required_number("dt", "the time step in s (> 0), or dt_alpha1");
+      t.positive("dt", l.dt, "s");
+    }
     const int64_t ranks = t.integer("ranks").value_or(l.ranks);
     t.check("ranks", ranks >= 1 && ranks <= 1'000'000, std::to_string(ranks) + " is not a valid number of MPI "
                                                              "processes; give ranks >= 1");
     l.ranks = static_cast<int>(ranks);
     l.skin = t.number("skin", l.skin);
     t.non_negative("skin", l.skin, "m (0 = automatic)");
+    if (const auto grid = t.numbers("processors", 3)) {
+      int64_t product = 1;
+      for (double g : *grid) {
+        t.check("processors", g >= 1.0 && g == std::floor(g) && g <= 1e6,
+                "every entry must be a whole number >= 1, e.g. processors = [2, 1, 1]");
+        l.processors.push_back(static_cast<int>(g));
+        product *= static_cast<int64_t>(g);
+      }
+      t.check("processors", product == l.ranks,
+              "[" + std::to_string(l.processors[0]) + ", " + std::to_string(l.processors[1]) + ", " +
+                  std::to_string(l.processors[2]) + "] makes " + std::to_string(product) +
+                  " boxes but ranks = " + std::to_string(l.ranks) + "; the product must equal ranks");
+    }
+    l.balance = t.boolean("balance").value_or(l.balance);
     l.loc = t.loc();
     spec.levels.push_back(l);
   }

@@ -47,7 +47,10 @@ struct LevelSpec {                 // [[levels]]
   double alpha = 1.0;              // alpha: coarse-grain ratio >= 1; radii of every insertion are scaled by it
   double dt = 0.0;                 // dt > 0
   int ranks = 1;                   // ranks >= 1 (MPI processes of this level)
-  double skin = 0.0;               // skin >= 0 [m]; 0 = automatic (0.3 x largest level radius)
+  double skin = 0.0;               // skin >= 0 [m]; 0 = automatic (0.5 x largest level radius)
+  double dt_alpha1 = 0.0;          // dt_alpha1 > 0: instead of dt, dt = dt_alpha1 x alpha (dt scales with alpha)
+  std::vector<int> processors;     // processors = [px, py, pz]: MPI process grid (product = ranks); empty = automatic
+  bool balance = true;             // balance: shift the rank boundaries to even out particle counts
   SourceLoc loc;
 };
 

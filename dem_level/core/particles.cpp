@@ -1,10 +1,12 @@
 #include "core/particles.hpp"
 
 #include <numbers>
+#include <stdexcept>
 
 namespace mlcg {
 
 void Particles::add(const ParticleInit& p) {
+  if (x.size() != n_local_) throw std::logic_error("Particles::add with ghosts present: drop them first");
   const double vol = 4.0 / 3.0 * std::numbers::pi * p.radius * p.radius * p.radius;
   const double m = p.density * vol;
   x.push_back(p.x);
@@ -19,6 +21,28 @@ void Particles::add(const ParticleInit& p) {
   id.push_back(p.id);
   material.push_back(p.material);
   n_local_ = x.size();
+}
+
+void Particles::add_ghost(const Vec3& xg, const Vec3& vg, const Vec3& wg, double r, double m, int64_t idg,
+                          int32_t mat) {
+  x.push_back(xg);
+  v.push_back(vg);
+  f.push_back({});
+  omega.push_back(wg);
+  torque.push_back({});
+  radius.push_back(r);
+  mass.push_back(m);
+  inv_mass.push_back(1.0 / m);
+  inv_inertia.push_back(1.0 / (0.4 * m * r * r));
+  id.push_back(idg);
+  material.push_back(mat);
+}
+
+void Particles::drop_ghosts() {
+  const size_t n = n_local_;
+  x.resize(n); v.resize(n); f.resize(n); omega.resize(n); torque.resize(n);
+  radius.resize(n); mass.resize(n); inv_mass.resize(n); inv_inertia.resize(n);
+  id.resize(n); material.resize(n);
 }
 
 namespace {

@@ -29,7 +29,12 @@ class Particles {
   size_t size() const { return x.size(); }
   size_t n_local() const { return n_local_; }
 
-  void add(const ParticleInit& p);
+  void add(const ParticleInit& p);  // a local particle; only while there are no ghosts
+  // A copy of another rank's particle, after the local ones (forces stay zero).
+  void add_ghost(const Vec3& x, const Vec3& v, const Vec3& omega, double radius, double mass, int64_t id,
+                 int32_t material);
+  void drop_ghosts();
+  size_t n_ghost() const { return x.size() - n_local_; }
   // Keep only the particles listed, in that order: new index k holds old index new_to_old[k].
   void permute(const std::vector<int32_t>& new_to_old);
   void clear_forces();
@@ -56,6 +61,17 @@ struct ContactHistory {
     return {};
   }
   void permute(const std::vector<int32_t>& new_to_old, size_t n_new_total);
+  void truncate(size_t n) {
+    first.resize(n + 1);
+    key.resize(static_cast<size_t>(first[n]));
+    value.resize(static_cast<size_t>(first[n]));
+  }
+  // Appends one particle's list at the end.
+  void append(const int64_t* keys, const Vec3* values, size_t count) {
+    key.insert(key.end(), keys, keys + count);
+    value.insert(value.end(), values, values + count);
+    first.push_back(static_cast<int32_t>(key.size()));
+  }
 };
 
 }  // namespace mlcg

@@ -83,8 +83,47 @@ double Inserter::draw_radius(std::mt19937_64& rng) const {
   return prm_.r_const;
 }
 
-int64_t Inserter::run_batch(Particles& p, const WallSet& walls, std::mt19937_64& rng, int64_t& next_id,
-                            double g_mag) {
+bool Inserter::in_footprint(const Vec3& x, double margin, const Vec3& lo, const Vec3& hi) const {
+  if (prm_.cylinder) {
+    const double dx = x.x - prm_.cx, dy = x.y - prm_.cy;
+    const double R = prm_.cyl_radius + margin;
+    return dx * dx + dy * dy <= R * R;
+  }
+  return x.x >= lo.x - margin && x.x <= hi.x + margin && x.y >= lo.y - margin && x.y <= hi.y + margin;
+}
+
+double Inserter::heap_top(const Particles& p, double g_mag) const {
+  // Falling particles are not part of the heap: only those slower than half the pouring speed.
+  const double slow = 0.5 * std::max(norm(prm_.velocity), std::sqrt(2.0 * g_mag * std::max(prm_.follow_gap, 1e-3)));
+  double heap = -std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < p.n_local(); ++i)
+    if (in_footprint(p.x[i], 0.0, prm_.lo, prm_.hi) && norm2(p.v[i]) < slow * slow)
+      heap = std::max(heap, p.x[i].z + p.radius[i]);
+  return heap;
+}
+
+void Inserter::batch_region(double heap, Vec3& lo, Vec3& hi) const {
+  lo = prm_.lo;
+  hi = prm_.hi;
+  if (!follows_heap()) return;
+  // The region is the envelope; each batch uses a slab of it just above the heap.
+  lo.z = std::isfinite(heap) ? std::max(prm_.lo.z, heap + prm_.follow_gap) : prm_.lo.z;
+  hi.z = std::min(prm_.hi.z, lo.z + prm_.follow_height);
+  lo.z = std::min(lo.z, std::max(prm_.lo.z, hi.z - prm_.follow_height));
+}
+
+void Inserter::nearby(const Particles& p, const Vec3& lo, const Vec3& hi, double reach,
+                      std::vector<Sphere>& out) const {
+  for (size_t i = 0; i < p.n_local(); ++i) {
+    const Vec3& x = p.x[i];
+    if (x.z < lo.z - reach || x.z > hi.z + reach || !in_footprint(x, reach, lo, hi)) continue;
+    out.push_back({x, p.radius[i]});
+  }
+}
+
+std::vector<ParticleInit> Inserter::place_batch(const std::vector<Sphere>& obstacles, double reach, const Vec3& lo,
+                                                const Vec3& hi, const WallSet& walls, std::mt19937_64& rng,
+                                                int64_t& next_id) {
   // How many particles this batch asks for: the rate's share up to the batch end, plus carried ones.
   int64_t due_total = prm_.target;
   if (prm_.rate > 0.0)
@@ -92,46 +131,15 @@ int64_t Inserter::run_batch(Particles& p, const WallSet& walls, std::mt19937_64&
         prm_.target, static_cast<int64_t>(std::floor(prm_.rate * prm_.interval * static_cast<double>(st_.batch + 1))));
   const int64_t fresh = std::max<int64_t>(0, due_total - st_.requested);
   st_.requested += fresh;
-  int64_t want = st_.pending + fresh;
+  const int64_t want = st_.pending + fresh;
   ++st_.batch;
 
-  Vec3 lo = prm_.lo, hi = prm_.hi;
-  const double rmax_ins = prm_.dist == InsertionParams::Dist::Constant ? prm_.r_const : prm_.r_max;
-  double rmax_all = rmax_ins;
-  for (size_t i = 0; i < p.n_local(); ++i) rmax_all = std::max(rmax_all, p.radius[i]);
-
-  auto in_footprint = [&](const Vec3& x, double margin) {
-    if (prm_.cylinder) {
-      const double dx = x.x - prm_.cx, dy = x.y - prm_.cy;
-      const double R = prm_.cyl_radius + margin;
-      return dx * dx + dy * dy <= R * R;
-    }
-    return x.x >= lo.x - margin && x.x <= hi.x + margin && x.y >= lo.y - margin && x.y <= hi.y + margin;
-  };
-
-  if (prm_.follow_gap >= 0.0) {
-    // Lower the region to just above the resting heap under it (falling particles excluded).
-    const double slow = 0.5 * std::max(norm(prm_.velocity), std::sqrt(2.0 * g_mag * std::max(prm_.follow_gap, 1e-3)));
-    double heap = -std::numeric_limits<double>::infinity();
-    for (size_t i = 0; i < p.n_local(); ++i)
-      if (in_footprint(p.x[i], 0.0) && norm2(p.v[i]) < slow * slow) heap = std::max(heap, p.x[i].z + p.radius[i]);
-    // The region is the envelope; each batch uses a slab of it just above the heap.
-    lo.z = std::isfinite(heap) ? std::max(prm_.lo.z, heap + prm_.follow_gap) : prm_.lo.z;
-    hi.z = std::min(prm_.hi.z, lo.z + prm_.follow_height);
-    lo.z = std::min(lo.z, std::max(prm_.lo.z, hi.z - prm_.follow_height));
-  }
-
-  OverlapGrid grid(2.0 * rmax_all);
-  for (size_t i = 0; i < p.n_local(); ++i) {
-    const Vec3& x = p.x[i];
-    if (x.z < lo.z - 2 * rmax_all || x.z > hi.z + 2 * rmax_all) continue;
-    if (!in_footprint(x, 2 * rmax_all)) continue;
-    grid.add(x, p.radius[i]);
-  }
+  OverlapGrid grid(std::max(reach, 1e-12));
+  for (const auto& s : obstacles) grid.add(s.x, s.r);
 
   std::uniform_real_distribution<double> u(0.0, 1.0);
   std::vector<int32_t> scratch;
-  int64_t placed = 0;
+  std::vector<ParticleInit> placed;
   int64_t unplaced = 0;
   for (int64_t k = 0; k < want; ++k) {
     const double r = draw_radius(rng);
@@ -147,8 +155,7 @@ int64_t Inserter::run_batch(Particles& p, const WallSet& walls, std::mt19937_64&
         x = {lo.x + r + (hi.x - lo.x - 2 * r) * u(rng), lo.y + r + (hi.y - lo.y - 2 * r) * u(rng),
              lo.z + r + (hi.z - lo.z - 2 * r) * u(rng)};
       }
-      ok = !grid.overlaps(x, r) && !touches_wall(walls, x, r, scratch) &&
-           !walls.crosses(x, {x.x, x.y, prm_.hi.z});
+      ok = !grid.overlaps(x, r) && !touches_wall(walls, x, r, scratch) && !walls.crosses(x, {x.x, x.y, prm_.hi.z});
     }
     if (!ok) {
       ++unplaced;
@@ -162,13 +169,12 @@ int64_t Inserter::run_batch(Particles& p, const WallSet& walls, std::mt19937_64&
     pi.density = prm_.density;
     pi.x = x;
     pi.v = prm_.velocity;
-    p.add(pi);
+    placed.push_back(pi);
     st_.placed_mass += particle_mass(r);
-    ++placed;
   }
-  st_.placed += placed;
+  st_.placed += static_cast<int64_t>(placed.size());
   st_.pending = unplaced;
-  st_.stalled = (placed == 0 && unplaced > 0) ? st_.stalled + 1 : 0;
+  st_.stalled = (placed.empty() && unplaced > 0) ? st_.stalled + 1 : 0;
   if (st_.stalled >= prm_.max_stalled_batches) finish();
   if (st_.requested >= prm_.target && st_.pending == 0) st_.done = true;
   return placed;

@@ -40,6 +40,16 @@ struct InsertionParams {
   int max_stalled_batches = 50;
 };
 
+// A particle that candidates must not overlap.
+struct Sphere {
+  Vec3 x;
+  double r;
+};
+
+// One batch is computed in three steps so that every MPI rank can run the same
+// SSI on the same data (identical random draws, identical result):
+//   heap_top (reduced with max over ranks) -> batch_region -> nearby (gathered
+//   from all ranks) -> place_batch.
 class Inserter {
  public:
   struct State {  // checkpointed
@@ -57,8 +67,18 @@ class Inserter {
 
   double next_batch_time() const { return prm_.start + static_cast<double>(st_.batch) * prm_.interval; }
   bool due(double t, double dt) const { return !st_.done && t + 0.5 * dt >= next_batch_time(); }
-  // Runs one batch: appends placed particles to p (ids from next_id). Returns how many were placed.
-  int64_t run_batch(Particles& p, const WallSet& walls, std::mt19937_64& rng, int64_t& next_id, double g_mag);
+  bool follows_heap() const { return prm_.follow_gap >= 0.0; }
+
+  // Top of the resting heap under the region among these particles (-inf if none).
+  double heap_top(const Particles& p, double g_mag) const;
+  // The part of the region this batch fills, given the heap top over all ranks.
+  void batch_region(double heap_top, Vec3& lo, Vec3& hi) const;
+  // Particles of p that a candidate in [lo, hi] could touch (reach: largest diameter).
+  void nearby(const Particles& p, const Vec3& lo, const Vec3& hi, double reach, std::vector<Sphere>& out) const;
+  // SSI for this batch against `obstacles`; returns the placed particles (ids from next_id).
+  std::vector<ParticleInit> place_batch(const std::vector<Sphere>& obstacles, double reach, const Vec3& lo,
+                                        const Vec3& hi, const WallSet& walls, std::mt19937_64& rng,
+                                        int64_t& next_id);
   // Stop inserting: pending particles and those never requested count as failed.
   void finish();
   // The run ends: particles still waiting for a place count as failed.
@@ -66,6 +86,7 @@ class Inserter {
   double particle_mass(double r) const;
 
  private:
+  bool in_footprint(const Vec3& x, double margin, const Vec3& lo, const Vec3& hi) const;
   double draw_radius(std::mt19937_64& rng) const;
   InsertionParams prm_;
   State st_;

@@ -2,6 +2,7 @@
 // (written to a temporary name, then renamed). Restarting from it and running
 // N steps gives bit for bit the state of an uninterrupted run, because both
 // rebuild their neighbour lists at the step after the checkpoint.
+#include <cstring>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -31,6 +32,39 @@ ContactHistory read_history(const io::H5Reader& r, const std::string& g) {
 }  // namespace
 
 void Level::write_checkpoint(const std::filesystem::path& path) const {
+  // Particles and their contact history, gathered from all ranks in rank order.
+  ContactHistory ph, wh;
+  if (keep_history_ && history_loaded_) {  // restarted, no list built yet: the history is still per particle
+    ph = pair_hist_;
+    wh = wall_hist_;
+  } else if (keep_history_) {
+    nl_.save_history(p_, ph);
+    walls_.save_history(p_, wh);
+  } else {
+    ph.clear(p_.size());
+    wh.clear(p_.size());
+  }
+  std::vector<char> buf;
+  ByteWriter bw(buf);
+  for (size_t i = 0; i < p_.n_local(); ++i) {
+    bw.put(p_.x[i]); bw.put(p_.v[i]); bw.put(p_.f[i]); bw.put(p_.omega[i]); bw.put(p_.torque[i]);
+    bw.put(p_.radius[i]); bw.put(p_.mass[i]); bw.put(p_.inv_mass[i]); bw.put(p_.inv_inertia[i]);
+    bw.put(p_.id[i]); bw.put(p_.material[i]);
+    for (const ContactHistory* h : {&ph, &wh}) {
+      const int32_t b = h->first[i], e = h->first[i + 1];
+      bw.put(e - b);
+      bw.put_n(h->key.data() + b, static_cast<size_t>(e - b));
+      bw.put_n(h->value.data() + b, static_cast<size_t>(e - b));
+    }
+  }
+  std::vector<double> open_mass;  // each rank's part of each probe's open sample
+  for (const auto& pr : probes_) open_mass.push_back(pr.open_mass());
+  std::vector<char> om(reinterpret_cast<const char*>(open_mass.data()),
+                       reinterpret_cast<const char*>(open_mass.data() + open_mass.size()));
+  const auto all = comm_.gather0(buf);
+  const auto all_open = comm_.gather0(om);
+  if (comm_.rank() != 0) return;
+
   io::H5Writer w(path);
   w.set_attr("/", "format", "mlcg-level-checkpoint");
   w.set_attr("/", "version", kCheckpointVersion);
@@ -57,29 +91,52 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   rng << rng_;
   w.set_attr("/", "rng", rng.str());
 
-  w.write_vec3("particles/x", p_.x);
-  w.write_vec3("particles/v", p_.v);
-  w.write_vec3("particles/f", p_.f);
-  w.write_vec3("particles/omega", p_.omega);
-  w.write_vec3("particles/torque", p_.torque);
-  w.write("particles/radius", p_.radius);
-  w.write("particles/mass", p_.mass);
-  w.write("particles/inv_mass", p_.inv_mass);
-  w.write("particles/inv_inertia", p_.inv_inertia);
-  w.write("particles/id", p_.id);
-  w.write("particles/material", p_.material);
 
-  // Contact history as it stands now, in per-particle form.
-  ContactHistory ph, wh;
-  if (keep_history_) {
-    nl_.save_history(p_, ph);
-    walls_.save_history(p_, wh);
-  } else {
-    ph.clear(p_.size());
-    wh.clear(p_.size());
+  Particles p;
+  ContactHistory hp, hw;
+  hp.clear(0);
+  hw.clear(0);
+  ByteReader rd(all);
+  std::vector<int64_t> keys;
+  std::vector<Vec3> values;
+  while (!rd.done()) {
+    p.x.push_back(rd.get<Vec3>()); p.v.push_back(rd.get<Vec3>()); p.f.push_back(rd.get<Vec3>());
+    p.omega.push_back(rd.get<Vec3>()); p.torque.push_back(rd.get<Vec3>());
+    p.radius.push_back(rd.get<double>()); p.mass.push_back(rd.get<double>());
+    p.inv_mass.push_back(rd.get<double>()); p.inv_inertia.push_back(rd.get<double>());
+    p.id.push_back(rd.get<int64_t>()); p.material.push_back(rd.get<int32_t>());
+    for (ContactHistory* h : {&hp, &hw}) {
+      const auto c = static_cast<size_t>(rd.get<int32_t>());
+      keys.resize(c);
+      values.resize(c);
+      rd.get_n(keys.data(), c);
+      rd.get_n(values.data(), c);
+      h->append(keys.data(), values.data(), c);
+    }
   }
-  write_history(w, "history/pairs", ph);
-  write_history(w, "history/walls", wh);
+  w.write_vec3("particles/x", p.x);
+  w.write_vec3("particles/v", p.v);
+  w.write_vec3("particles/f", p.f);
+  w.write_vec3("particles/omega", p.omega);
+  w.write_vec3("particles/torque", p.torque);
+  w.write("particles/radius", p.radius);
+  w.write("particles/mass", p.mass);
+  w.write("particles/inv_mass", p.inv_mass);
+  w.write("particles/inv_inertia", p.inv_inertia);
+  w.write("particles/id", p.id);
+  w.write("particles/material", p.material);
+  write_history(w, "history/pairs", hp);
+  write_history(w, "history/walls", hw);
+
+  // The decomposition, so that a restart on the same grid keeps every particle on its rank.
+  const auto& grid = dec_.grid();
+  w.write("decomposition/grid", std::vector<int32_t>{grid[0], grid[1], grid[2]});
+  w.write("decomposition/cuts_x", dec_.cuts()[0]);
+  w.write("decomposition/cuts_y", dec_.cuts()[1]);
+  w.write("decomposition/cuts_z", dec_.cuts()[2]);
+  std::vector<double> opens(all_open.size() / sizeof(double));
+  std::memcpy(opens.data(), all_open.data(), all_open.size());
+  w.write("probes/open_mass_per_rank", opens);
 
   std::vector<uint8_t> active;
   for (size_t k = 0; k < walls_.walls(); ++k) active.push_back(walls_.active(k) ? 1 : 0);
@@ -105,7 +162,6 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
     const std::string g = fmt::format("probes/{}", k);
     w.create_group(g);
     w.set_attr(g, "sample_start", s.sample_start);
-    w.set_attr(g, "mass", s.mass);
     w.set_attr(g, "total_mass", s.total_mass);
     w.set_attr(g, "window_start", pr.params().window_start);
     w.set_attr(g, "window_end", pr.params().window_end);
@@ -179,6 +235,9 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   std::istringstream rng(r.attr_string("/", "rng"));
   rng >> rng_;
 
+  // Every rank reads all particles and keeps those in its box. On the grid the
+  // checkpoint was written with, the boxes are restored exactly, so each rank
+  // gets back its particles in their order (a bit-identical continuation).
   Particles p;
   p.x = r.read_vec3("particles/x");
   p.v = r.read_vec3("particles/v");
@@ -191,15 +250,30 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   p.inv_inertia = r.read<double>("particles/inv_inertia");
   p.id = r.read<int64_t>("particles/id");
   p.material = r.read<int32_t>("particles/material");
-  std::vector<int32_t> all(p.x.size());
-  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int32_t>(i);
-  p.permute(all);  // sets the local count
+  const auto grid = r.read<int32_t>("decomposition/grid");
+  const bool same_grid = grid.size() == 3 && grid[0] == dec_.grid()[0] && grid[1] == dec_.grid()[1] &&
+                         grid[2] == dec_.grid()[2];
+  if (same_grid)
+    dec_.set_cuts({r.read<double>("decomposition/cuts_x"), r.read<double>("decomposition/cuts_y"),
+                   r.read<double>("decomposition/cuts_z")});
+  else
+    log_->info("{}: written on a {} x {} x {} grid, continuing on {} x {} x {}", where, grid[0], grid[1], grid[2],
+               dec_.grid()[0], dec_.grid()[1], dec_.grid()[2]);
+  std::vector<int32_t> mine;
+  for (size_t i = 0; i < p.x.size(); ++i)
+    if (dec_.owner(p.x[i]) == comm_.rank()) mine.push_back(static_cast<int32_t>(i));
+  global_particles_ = static_cast<int64_t>(p.x.size());
+  p.permute(mine);  // also sets the local count
   p_ = std::move(p);
 
   pair_hist_ = read_history(r, "history/pairs");
   wall_hist_ = read_history(r, "history/walls");
+  pair_hist_.permute(mine, mine.size());
+  wall_hist_.permute(mine, mine.size());
   history_loaded_ = true;
 
+  const auto opens = r.read<double>("probes/open_mass_per_rank");
+  const size_t writer_ranks = probes_.empty() ? 0 : opens.size() / probes_.size();
   const auto active = r.read<uint8_t>("walls/active");
   if (active.size() != walls_.walls())
     throw std::runtime_error(fmt::format("{}: has {} walls, the case has {}", where, active.size(), walls_.walls()));
@@ -223,7 +297,12 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
     auto& s = pr.state();
     const std::string g = fmt::format("probes/{}", k);
     s.sample_start = r.attr_double(g, "sample_start");
-    s.mass = r.attr_double(g, "mass");
+    // This rank's part of the open sample: its own if the rank count is the same, else all on rank 0.
+    s.mass = 0.0;
+    if (writer_ranks == static_cast<size_t>(comm_.size()))
+      s.mass = opens[static_cast<size_t>(comm_.rank()) * probes_.size() + k];
+    else if (comm_.rank() == 0)
+      for (size_t q = 0; q < writer_ranks; ++q) s.mass += opens[q * probes_.size() + k];
     s.total_mass = r.attr_double(g, "total_mass");
     pr.params().window_start = r.attr_double(g, "window_start");
     pr.params().window_end = r.attr_double(g, "window_end");

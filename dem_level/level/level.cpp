@@ -6,11 +6,14 @@
 #include <atomic>
 #include <cmath>
 #include <csignal>
+#include <cstring>
+#include <limits>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "forces/integrator.hpp"
+#include "parallel/exchange.hpp"
 #include "level/phase_timer.hpp"
 
 namespace mlcg {
@@ -52,12 +55,13 @@ void Level::check_events(double t) {
     if (spec.after_insertion)
       for (const auto& in : ins_) ready = ready && in.state().done;
     if (ready && spec.mean_speed_below >= 0.0) {
-      double m = 0.0, mv2 = 0.0;
+      double s[2] = {0.0, 0.0};  // mass, sum m v^2 over all ranks
       for (size_t i = 0; i < p_.n_local(); ++i) {
-        m += p_.mass[i];
-        mv2 += p_.mass[i] * norm2(p_.v[i]);
+        s[0] += p_.mass[i];
+        s[1] += p_.mass[i] * norm2(p_.v[i]);
       }
-      const double rms = m > 0.0 ? std::sqrt(mv2 / m) : 0.0;
+      comm_.sum_in_place(s, 2);
+      const double rms = s[0] > 0.0 ? std::sqrt(s[1] / s[0]) : 0.0;
       ready = rms < spec.mean_speed_below;
     }
     if (ready) {
@@ -73,10 +77,25 @@ void Level::insert_due(double t) {
   PhaseTimer timer(times_.insert);
   for (auto& in : ins_) {
     if (!in.due(t, dt_)) continue;
-    const size_t before = p_.size();
-    const int64_t placed = in.run_batch(p_, walls_, rng_, next_id_, norm(gravity_));
-    for (size_t i = before; i < p_.size(); ++i) p_.f[i] = p_.mass[i] * gravity_;
-    if (placed > 0) rebuild_pending_ = true;
+    // Every rank computes the same batch from the same data and keeps its own particles.
+    const double heap = in.follows_heap() ? comm_.max(in.heap_top(p_, norm(gravity_)))
+                                          : -std::numeric_limits<double>::infinity();
+    Vec3 lo, hi;
+    in.batch_region(heap, lo, hi);
+    std::vector<Sphere> mine;
+    in.nearby(p_, lo, hi, 2.0 * r_max_, mine);
+    std::vector<char> buf(reinterpret_cast<const char*>(mine.data()),
+                          reinterpret_cast<const char*>(mine.data() + mine.size()));
+    const std::vector<char> all = comm_.allgather(buf);
+    std::vector<Sphere> obstacles(all.size() / sizeof(Sphere));
+    std::memcpy(obstacles.data(), all.data(), obstacles.size() * sizeof(Sphere));
+    const auto placed = in.place_batch(obstacles, 2.0 * r_max_, lo, hi, walls_, rng_, next_id_);
+    if (!placed.empty()) {
+      detach_ghosts();  // new local particles go before the ghosts; the rebuild restores them
+      for (const auto& pi : placed)
+        if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
+      rebuild_pending_ = true;
+    }
     if (in.state().done && in.state().failed > 0)
       log_->warn("insertion '{}': {} particles could not be placed (region full or blocked)", in.params().name,
                  in.state().failed);
@@ -104,21 +123,41 @@ void Level::fire_event(size_t e) {
   resolve_end_time();
 }
 
-void Level::rebuild() {
-  if (keep_history_ && !history_loaded_) {
-    nl_.save_history(p_, pair_hist_);
-    walls_.save_history(p_, wall_hist_);
+void Level::detach_ghosts() {
+  // The lists index ghosts; before the ghosts go, the contact history moves to
+  // per-particle form (the ghosts' own entries go with them).
+  if (!history_loaded_) {
+    if (keep_history_) {
+      nl_.save_history(p_, pair_hist_);
+      walls_.save_history(p_, wall_hist_);
+    } else {
+      pair_hist_.clear(p_.size());
+      wall_hist_.clear(p_.size());
+    }
+    history_loaded_ = true;
   }
-  history_loaded_ = false;
+  p_.drop_ghosts();
+  pair_hist_.truncate(p_.n_local());
+  wall_hist_.truncate(p_.n_local());
+}
+
+void Level::rebuild() {
+  detach_ghosts();
+
+  if (!comm_.serial()) {
+    PhaseTimer t(times_.comm);
+    if (balance_ && rebuilds_ % kSortEvery == 0 && dec_.imbalance(comm_, p_.n_local()) > 1.05)
+      dec_.balance(comm_, p_.x, p_.n_local());
+    migrate(comm_, dec_, p_, pair_hist_, wall_hist_);
+  }
+
   // Removal of particles that left the domain, and a periodic spatial sort.
   const size_t n = p_.n_local();
   std::vector<int32_t> order;
   const bool sort_now = rebuilds_ % kSortEvery == 0;
   if (sort_now) {
     CellBins bins;
-    double rmax = 0.0;
-    for (size_t i = 0; i < n; ++i) rmax = std::max(rmax, p_.radius[i]);
-    bins.build(p_.x, n, 2.0 * rmax + skin_);
+    bins.build(p_.x, n, 2.0 * r_max_ + skin_);
     order = bins.sorted();
   } else {
     order.resize(n);
@@ -126,29 +165,39 @@ void Level::rebuild() {
   }
   std::vector<int32_t> keep;
   keep.reserve(n);
+  double gone[2] = {0.0, 0.0};  // count, mass
   for (int32_t i : order) {
     const Vec3& x = p_.x[static_cast<size_t>(i)];
     if (x.x < dom_lo_.x || x.y < dom_lo_.y || x.z < dom_lo_.z || x.x > dom_hi_.x || x.y > dom_hi_.y ||
         x.z > dom_hi_.z) {
-      ++removed_;
-      removed_mass_ += p_.mass[static_cast<size_t>(i)];
+      gone[0] += 1.0;
+      gone[1] += p_.mass[static_cast<size_t>(i)];
       continue;
     }
     keep.push_back(i);
   }
   if (sort_now || keep.size() != n) {
     p_.permute(keep);
-    if (keep_history_) {
-      pair_hist_.permute(keep, p_.size());
-      wall_hist_.permute(keep, p_.size());
-    }
+    pair_hist_.permute(keep, p_.size());
+    wall_hist_.permute(keep, p_.size());
   }
+  {
+    PhaseTimer t(times_.comm);
+    double counts[3] = {gone[0], gone[1], static_cast<double>(p_.n_local())};
+    comm_.sum_in_place(counts, 3);
+    removed_ += static_cast<int64_t>(std::llround(counts[0]));
+    removed_mass_ += counts[1];
+    global_particles_ = static_cast<int64_t>(std::llround(counts[2]));
+    ghosts_.build(comm_, dec_, p_, ghost_cutoff_);
+  }
+
   nl_.build(p_, keep_history_);
   walls_.build_candidates(p_, skin_, keep_history_);
   if (keep_history_) {
     nl_.load_history(p_, pair_hist_);
     walls_.load_history(wall_hist_);
   }
+  history_loaded_ = false;
   for (auto& pr : probes_) pr.refresh(p_, skin_);
   ++rebuilds_;
   rebuild_pending_ = false;
@@ -162,27 +211,53 @@ std::string Level::describe_particle(size_t i) const {
                      p_.id[i], p_.radius[i], x.x, x.y, x.z, v.x, v.y, v.z, step_, time());
 }
 
-void Level::check_finite(double checksum, const char* what) {
-  if (std::isfinite(checksum)) return;
+std::string Level::non_finite(const char* what) const {
   for (size_t i = 0; i < p_.n_local(); ++i)
     if (!finite(p_.x[i]) || !finite(p_.v[i]) || !finite(p_.omega[i]))
-      throw GuardStop(fmt::format("non-finite {} of {}", what, describe_particle(i)));
-  throw GuardStop(fmt::format("non-finite {} at step {} (sum overflow)", what, step_));
+      return fmt::format("non-finite {} of {}", what, describe_particle(i));
+  return fmt::format("non-finite {} at step {} (sum overflow)", what, step_);
+}
+
+void Level::guard(const std::string& local_problem, double badness) {
+  // Collective: every rank stops together, with the message of the worst rank.
+  if (comm_.serial()) {
+    if (!local_problem.empty()) throw GuardStop(local_problem);
+    return;
+  }
+  PhaseTimer t(times_.comm);
+  const auto [worst, at] = comm_.max_loc(local_problem.empty() ? -1.0 : badness);
+  if (worst < 0.0) return;
+  throw GuardStop(comm_.bcast(local_problem, at));
 }
 
 void Level::step_once() {
   pre_step();
+  double sum = 0.0;
   {
     PhaseTimer t(times_.integrate);
-    check_finite(integrate_first_half(p_, dt_), "position");
+    sum = integrate_first_half(p_, dt_);
+  }
+  bool rebuild_now = rebuild_pending_;
+  if (std::isfinite(sum)) {
+    PhaseTimer t(times_.neighbor);
+    rebuild_now = rebuild_now || nl_.needs_rebuild(p_);
+  }
+  {
+    // One reduction decides both: does any rank need a rebuild, has any a NaN.
+    PhaseTimer t(times_.comm);
+    double flags[2] = {rebuild_now ? 1.0 : 0.0, std::isfinite(sum) ? 0.0 : 1.0};
+    comm_.max_in_place(flags, 2);
+    rebuild_now = flags[0] > 0.0;
+    if (flags[1] > 0.0) guard(std::isfinite(sum) ? std::string() : non_finite("position"), 2.0);
+    if (!rebuild_now) ghosts_.forward(comm_, p_);
   }
   if (!probes_.empty()) {
     PhaseTimer t(times_.measure);
     for (auto& pr : probes_) pr.check(p_);
   }
-  {
+  if (rebuild_now) {
     PhaseTimer t(times_.neighbor);
-    if (rebuild_pending_ || nl_.needs_rebuild(p_)) rebuild();
+    rebuild();
   }
   bool stress = false;
   for (const auto& g : grids_) stress = stress || (step_ + 1) % g.sample_every == 0;
@@ -192,19 +267,22 @@ void Level::step_once() {
     forces_(fctx_, stress);
   }
   const auto& st = fctx_.stats;
+  std::string problem;
   if (st.max_overlap_ratio > cs_.stability.max_overlap_fraction)
-    throw GuardStop(fmt::format("overlap of {:.1f} % of the radius (limit [stability] max_overlap_fraction = {:.0f} "
-                                "%) at {}: the time step is too large for this impact or the material too soft",
-                                100.0 * st.max_overlap_ratio, 100.0 * cs_.stability.max_overlap_fraction,
-                                describe_particle(static_cast<size_t>(st.worst_particle))));
+    problem = fmt::format("overlap of {:.1f} % of the radius (limit [stability] max_overlap_fraction = {:.0f} %) at "
+                          "{}: the time step is too large for this impact or the material too soft",
+                          100.0 * st.max_overlap_ratio, 100.0 * cs_.stability.max_overlap_fraction,
+                          describe_particle(static_cast<size_t>(st.worst_particle)));
   {
     PhaseTimer t(times_.integrate);
-    check_finite(integrate_second_half(p_, dt_), "velocity");
+    sum = integrate_second_half(p_, dt_);
   }
+  if (problem.empty() && !std::isfinite(sum)) problem = non_finite("velocity");
+  guard(problem, std::isfinite(sum) ? st.max_overlap_ratio : 2.0);
   ++step_;
   ++steps_this_process_;
-  particle_steps_ += p_.n_local();
-  max_particles_ = std::max(max_particles_, p_.n_local());
+  particle_steps_ += static_cast<uint64_t>(global_particles_);
+  max_particles_ = std::max<size_t>(max_particles_, static_cast<size_t>(global_particles_));
   after_step();
 }
 
@@ -223,10 +301,13 @@ MassBalance Level::mass_balance() const {
   b.requested += explicit_count_;
   b.inserted += explicit_count_;
   b.inserted_mass += explicit_mass_;
-  b.present = static_cast<int64_t>(p_.n_local());
+  double present[2] = {static_cast<double>(p_.n_local()), 0.0};
+  for (size_t i = 0; i < p_.n_local(); ++i) present[1] += p_.mass[i];
+  comm_.sum_in_place(present, 2);
+  b.present = static_cast<int64_t>(std::llround(present[0]));
+  b.present_mass = present[1];
   b.removed = removed_;
   b.removed_mass = removed_mass_;
-  for (size_t i = 0; i < p_.n_local(); ++i) b.present_mass += p_.mass[i];
   return b;
 }
 
@@ -234,7 +315,7 @@ double Level::kinetic_energy() const {
   double e = 0.0;
   for (size_t i = 0; i < p_.n_local(); ++i)
     e += 0.5 * p_.mass[i] * norm2(p_.v[i]) + 0.5 / p_.inv_inertia[i] * norm2(p_.omega[i]);
-  return e;
+  return comm_.sum(e);
 }
 
 }  // namespace mlcg

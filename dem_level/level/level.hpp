@@ -23,6 +23,9 @@
 #include "measure/cell_grid.hpp"
 #include "measure/probe.hpp"
 #include "neighbor/neighbor_list.hpp"
+#include "parallel/comm.hpp"
+#include "parallel/decomposition.hpp"
+#include "parallel/exchange.hpp"
 #include "walls/wall_set.hpp"
 
 namespace spdlog { class logger; }
@@ -35,6 +38,7 @@ struct LevelOptions {
   std::filesystem::path restart;   // checkpoint to continue from
   int64_t max_steps = -1;          // stop (with a checkpoint) after this many steps in this process
   bool quiet = false;              // no progress lines
+  bool single_rank = false;        // run on this rank alone even inside an MPI job
 };
 
 // Raised when the level stops on a guard: NaN/inf or an excessive overlap.
@@ -95,6 +99,7 @@ class Level {
   // Cell-grid averages since the last output of grid g (resets them).
   GridAverages take_grid_averages(size_t g) { return grids_[g].grid.take_averages(); }
 
+  // Collective: the state of every rank, gathered and written by rank 0.
   void write_checkpoint(const std::filesystem::path& path) const;
   void interrupt() { interrupted_ = true; }
 
@@ -111,6 +116,7 @@ class Level {
     double next_output = 0.0;
     int64_t outputs = 0;
     std::unique_ptr<io::GridSeries> series;
+    std::vector<double> sums, maxs;  // scratch for one sample
   };
 
   void setup();
@@ -118,16 +124,20 @@ class Level {
   void setup_insertions();
   void setup_measurements();
   void load_checkpoint(const std::filesystem::path& path);
-  void load_initial_state();
+  void load_initial_state(std::vector<ParticleKind>& kinds, bool add);
 
   void pre_step();                // events and insertion at the current time
   void check_events(double t);
   void insert_due(double t);
   void fire_event(size_t e);
   void rebuild();
-  void check_finite(double checksum, const char* what);
+  void detach_ghosts();
+  std::string non_finite(const char* what) const;  // names the first bad particle
+  // Collective stop: throws GuardStop on every rank if any rank has a problem.
+  void guard(const std::string& local_problem, double badness);
   void after_step();              // measurements and outputs at the new time
   void write_outputs(bool final);
+  void write_snapshot();             // collective: gathered on rank 0
   std::string series_row() const;
   void write_summary(const std::string& status, const std::string& reason) const;
   void progress(bool force);
@@ -159,6 +169,14 @@ class Level {
   std::vector<std::string> probe_events_;  // window_relative_to per probe
   std::vector<GridRun> grids_;
   std::vector<EventState> events_;
+
+  Comm comm_;
+  Decomposition dec_;
+  GhostExchange ghosts_;
+  bool balance_ = true;
+  double r_max_ = 0.0;              // largest radius this level will hold
+  double ghost_cutoff_ = 0.0;       // 2 r_max + skin
+  int64_t global_particles_ = 0;    // over all ranks, as of the last rebuild
 
   std::mt19937_64 rng_;
   uint64_t step_ = 0;

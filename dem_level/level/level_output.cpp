@@ -38,7 +38,7 @@ RunStatus Level::run() {
     next_stats_ = o.stats_interval;
     next_snapshot_ = o.snapshot_interval;
     next_checkpoint_ = o.checkpoint_interval;
-    series_rows_.push_back(fmt::format("0,{},{:.9g},0,0,0,{},0,0,0,0", p_.n_local(), kinetic_energy(), p_.n_local()));
+    series_rows_.push_back(series_row());
   }
   if (end_time_ >= 0.0) log_->info("running to t = {:.4g} s ({} steps)", end_time_, std::llround(end_time_ / dt_));
   else log_->info("running until event '{}' + {} s", cs_.time.end_event, cs_.time.end_plus);
@@ -48,7 +48,7 @@ RunStatus Level::run() {
   try {
     while (true) {
       if (end_time_ >= 0.0 && time() >= end_time_ - half) break;
-      if (interrupted_ || stop_requested()) {
+      if (comm_.any(interrupted_ || stop_requested())) {
         status = RunStatus::Interrupted;
         reason = "interrupted by a signal";
         break;
@@ -93,9 +93,15 @@ void Level::after_step() {
   const double half = 0.5 * dt_;
   {
     PhaseTimer measure(times_.measure);
-    for (auto& pr : probes_) pr.advance(t);
+    for (auto& pr : probes_)
+      if (pr.sample_due(t)) pr.close_sample(t, comm_.sum(pr.open_mass()));
     for (auto& g : grids_) {
-      if (step_ % g.sample_every == 0) g.grid.sample(p_, stress6_);
+      if (step_ % g.sample_every == 0) {
+        g.grid.local_sample(p_, stress6_, g.sums, g.maxs);
+        comm_.sum_in_place(g.sums.data(), g.sums.size());
+        comm_.max_in_place(g.maxs.data(), g.maxs.size());
+        g.grid.add_sample(g.sums, g.maxs);
+      }
       if (t >= g.next_output - half) {
         const GridAverages a = g.grid.take_averages();
         if (g.series) g.series->write(t, a.volume_fraction, a.mean_velocity, a.max_speed, a.stress6, a.count);
@@ -111,8 +117,7 @@ void Level::after_step() {
     next_stats_ += o.stats_interval;
   }
   if (o.snapshot_interval > 0.0 && t >= next_snapshot_ - half) {
-    if (snaps_) snaps_->write(t, step_, p_.n_local(), p_.x.data(), p_.v.data(), p_.omega.data(), p_.radius.data(),
-                              p_.id.data());
+    write_snapshot();
     ++snapshots_;
     next_snapshot_ += o.snapshot_interval;
   }
@@ -131,21 +136,43 @@ void Level::after_step() {
 
 std::string Level::series_row() const {
   const auto b = mass_balance();
-  return fmt::format("{:.6f},{},{:.9g},{},{},{},{},{},{},{},{}", time(), p_.n_local(), kinetic_energy(),
-                     fctx_.stats.pair_contacts, fctx_.stats.wall_contacts, b.requested, b.inserted, b.removed, b.failed,
-                     b.pending, rebuilds_);
+  int64_t contacts[2] = {fctx_.stats.pair_contacts, fctx_.stats.wall_contacts};
+  comm_.sum_in_place(contacts, 2);
+  return fmt::format("{:.6f},{},{:.9g},{},{},{},{},{},{},{},{}", time(), b.present, kinetic_energy(), contacts[0],
+                     contacts[1], b.requested, b.inserted, b.removed, b.failed, b.pending, rebuilds_);
+}
+
+void Level::write_snapshot() {
+  // Gathered on rank 0 in rank order.
+  std::vector<char> buf;
+  ByteWriter w(buf);
+  for (size_t i = 0; i < p_.n_local(); ++i) {
+    w.put(p_.x[i]); w.put(p_.v[i]); w.put(p_.omega[i]); w.put(p_.radius[i]); w.put(p_.id[i]);
+  }
+  const auto all = comm_.gather0(buf);
+  if (!snaps_) return;
+  std::vector<Vec3> x, v, om;
+  std::vector<double> r;
+  std::vector<int64_t> id;
+  ByteReader rd(all);
+  while (!rd.done()) {
+    x.push_back(rd.get<Vec3>()); v.push_back(rd.get<Vec3>()); om.push_back(rd.get<Vec3>());
+    r.push_back(rd.get<double>()); id.push_back(rd.get<int64_t>());
+  }
+  snaps_->write(time(), step_, x.size(), x.data(), v.data(), om.data(), r.data(), id.data());
 }
 
 void Level::write_outputs(bool final) {
   if (opt_.out_dir.empty()) return;
-  if (final && snaps_ && (snaps_->entries().empty() || snaps_->entries().back().time < time()))
-    snaps_->write(time(), step_, p_.n_local(), p_.x.data(), p_.v.data(), p_.omega.data(), p_.radius.data(),
-                  p_.id.data());
+  const bool need_final_snapshot = comm_.rank() != 0 || !snaps_ || snaps_->entries().empty() ||
+                                   snaps_->entries().back().time < time();
+  if (final && comm_.any(comm_.rank() == 0 && need_final_snapshot)) write_snapshot();
   // The file ends with the state at the end of this process (replacing a row of
   // the same time); that row is not part of the checkpointed series.
   std::vector<std::string> rows = series_rows_;
+  const std::string last = final ? series_row() : std::string();
+  if (comm_.rank() != 0) return;
   if (final) {
-    const std::string last = series_row();
     const auto stamp = [](const std::string& r) { return r.substr(0, r.find(',')); };
     if (!rows.empty() && stamp(rows.back()) == stamp(last)) rows.back() = last;
     else rows.push_back(last);
@@ -159,6 +186,14 @@ void Level::write_outputs(bool final) {
 void Level::write_summary(const std::string& status, const std::string& reason) const {
   if (opt_.out_dir.empty()) return;
   using nlohmann::json;
+  // Collective part first: every rank contributes, rank 0 writes.
+  const auto b = mass_balance();
+  const double nr = static_cast<double>(comm_.size());
+  double sums[10] = {times_.integrate, times_.neighbor, times_.force, times_.comm, times_.measure, times_.insert,
+                     times_.output, static_cast<double>(nl_.pairs()), static_cast<double>(memory_bytes()),
+                     static_cast<double>(p_.n_local())};
+  comm_.sum_in_place(sums, 10);
+  if (comm_.rank() != 0) return;
   const double wall = wall_seconds_before_ + (now_seconds() - wall_start_);
   json j;
   j["status"] = status;
@@ -175,7 +210,7 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
   lv["dt"] = dt_;
   lv["ranks"] = lvl_.ranks;
   lv["particles_max"] = max_particles_;
-  lv["particles_final"] = p_.n_local();
+  lv["particles_final"] = b.present;
   lv["particle_steps"] = particle_steps_;
   lv["particle_steps_per_second"] = wall > 0.0 ? static_cast<double>(particle_steps_) / wall : 0.0;
   lv["neighbour_rebuilds"] = rebuilds_;
@@ -185,15 +220,16 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
   lv["impact_speed"] = stab_.impact_speed;
   lv["steps_per_contact"] = stab_.steps_per_contact;
   lv["dt_guard_overridden"] = stab_.overridden;
-  // Where the time went, and what the neighbour search and memory look like now.
-  const double n_now = static_cast<double>(std::max<size_t>(1, p_.n_local()));
+  // Where the time went (mean over ranks), and what the neighbour search and memory look like now.
+  const double n_now = std::max(1.0, sums[9]);
   lv["performance"] = {
-      {"seconds", {{"integrate", times_.integrate}, {"neighbor", times_.neighbor}, {"force", times_.force},
-                   {"comm", times_.comm}, {"measure", times_.measure}, {"insert", times_.insert},
-                   {"output", times_.output}}},
+      {"seconds", {{"integrate", sums[0] / nr}, {"neighbor", sums[1] / nr}, {"force", sums[2] / nr},
+                   {"comm", sums[3] / nr}, {"measure", sums[4] / nr}, {"insert", sums[5] / nr},
+                   {"output", sums[6] / nr}}},
       {"rebuilds_per_1000_steps", step_ > 0 ? 1000.0 * static_cast<double>(rebuilds_) / static_cast<double>(step_) : 0.0},
-      {"neighbour_pairs_per_particle", static_cast<double>(nl_.pairs()) / n_now},
-      {"bytes_per_particle", static_cast<double>(memory_bytes()) / n_now}};
+      {"neighbour_pairs_per_particle", sums[7] / n_now},
+      {"bytes_per_particle", sums[8] / n_now},
+      {"ranks", comm_.size()}};
   j["levels"] = json::array({lv});
   json probes = json::array();
   for (const auto& pr : probes_) {
@@ -209,7 +245,6 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
     probes.push_back(q);
   }
   j["probes"] = probes;
-  const auto b = mass_balance();
   j["mass_balance"] = {{"requested", b.requested},       {"inserted", b.inserted},
                        {"present", b.present},           {"removed", b.removed},
                        {"failed_to_place", b.failed},    {"pending", b.pending},
@@ -225,7 +260,7 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
 }
 
 void Level::progress(bool force) {
-  if (opt_.quiet) return;
+  if (opt_.quiet || comm_.rank() != 0) return;
   const double now = now_seconds();
   if (!force && now - last_progress_ < cs_.time.progress_interval) return;
   const double wall = now - wall_start_;
@@ -243,7 +278,7 @@ void Level::progress(bool force) {
   }
   log_->info("t = {:.4f} s{} | {} particles | {:.3g} particle-steps/s | {}", t,
              end_time_ >= 0.0 ? fmt::format(" / {:.4f} s ({:.0f} %)", end_time_, 100.0 * t / end_time_) : "",
-             p_.n_local(), rate, eta);
+             global_particles_, rate, eta);
   last_progress_t_ = t;
   last_progress_ = now;
 }

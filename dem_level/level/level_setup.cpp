@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_sinks.h>
+#include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "io/grid_series.hpp"
@@ -72,7 +73,8 @@ const char* to_string(RunStatus s) {
 }
 
 Level::Level(const config::CaseSpec& cs, LevelOptions opt)
-    : cs_(cs), opt_(std::move(opt)), fctx_{p_, nl_, walls_, mt_, 0.0, stress6_, wall_force_, {}} {
+    : cs_(cs), opt_(std::move(opt)), fctx_{p_, nl_, walls_, mt_, 0.0, stress6_, wall_force_, {}},
+      comm_(opt_.single_rank) {
   setup();
 }
 
@@ -80,16 +82,23 @@ Level::~Level() = default;
 
 void Level::setup() {
   // Logging: console (unless quiet) and, with a run folder, its log file.
+  // Rank 0 speaks for the level; other ranks report only their errors.
   std::vector<spdlog::sink_ptr> sinks;
-  if (!opt_.quiet) sinks.push_back(std::make_shared<spdlog::sinks::stdout_sink_mt>());
-  if (!opt_.out_dir.empty()) {
-    std::filesystem::create_directories(opt_.out_dir);
-    sinks.push_back(std::make_shared<spdlog::sinks::basic_file_sink_mt>((opt_.out_dir / "log.txt").string()));
+  if (comm_.rank() == 0) {
+    if (!opt_.quiet) sinks.push_back(std::make_shared<spdlog::sinks::stdout_sink_mt>());
+    if (!opt_.out_dir.empty()) {
+      std::filesystem::create_directories(opt_.out_dir);
+      sinks.push_back(std::make_shared<spdlog::sinks::basic_file_sink_mt>((opt_.out_dir / "log.txt").string()));
+    }
+  } else {
+    sinks.push_back(std::make_shared<spdlog::sinks::stderr_sink_mt>());
   }
   log_ = std::make_shared<spdlog::logger>("dem_level", sinks.begin(), sinks.end());
   log_->set_pattern("[%H:%M:%S] %v");
+  if (comm_.rank() != 0) log_->set_level(spdlog::level::err);
 
   lvl_ = cs_.levels.front();
+  if (lvl_.dt_alpha1 > 0.0) lvl_.dt = lvl_.dt_alpha1 * lvl_.alpha;
   dt_ = lvl_.dt;
   alpha_ = lvl_.alpha;
   fctx_.dt = dt_;
@@ -113,8 +122,23 @@ void Level::setup() {
              alpha_, dt_, cs_.contact.tangential, cs_.contact.rolling,
              choice_.clamp_normal ? " (normal force clamped)" : "");
 
+  // The process grid; the boundaries start uniform and are balanced at the first rebuild.
+  std::array<int, 3> grid = Decomposition::default_grid(comm_.size(), dom_lo_, dom_hi_);
+  if (!lvl_.processors.empty()) grid = {lvl_.processors[0], lvl_.processors[1], lvl_.processors[2]};
+  if (grid[0] * grid[1] * grid[2] != comm_.size())
+    throw std::runtime_error(fmt::format("{}: levels[{}].processors = [{}, {}, {}] needs {} MPI ranks, but the level "
+                                         "runs on {}",
+                                         lvl_.loc.str(), lvl_.name, grid[0], grid[1], grid[2],
+                                         grid[0] * grid[1] * grid[2], comm_.size()));
+  dec_ = Decomposition(grid, dom_lo_, dom_hi_);
+  balance_ = lvl_.balance;
+  if (!comm_.serial())
+    log_->info("MPI: {} ranks as a {} x {} x {} grid{}", comm_.size(), grid[0], grid[1], grid[2],
+               balance_ ? ", boundaries balanced by particle count" : "");
+
   setup_walls();
   setup_insertions();
+  std::vector<ParticleKind> explicit_kinds;
   for (const auto& ps : cs_.particles) {
     ParticleInit pi;
     pi.id = next_id_++;
@@ -124,11 +148,12 @@ void Level::setup() {
     pi.x = ps.position;
     pi.v = ps.velocity;
     pi.omega = ps.omega;
-    add_particle(pi);
+    explicit_kinds.push_back({pi.material, pi.radius, pi.radius, norm(pi.v)});
     ++explicit_count_;
-    explicit_mass_ += p_.mass.back();
+    explicit_mass_ += pi.density * 4.0 / 3.0 * std::numbers::pi * pi.radius * pi.radius * pi.radius;
+    if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
-  if (cs_.initial && opt_.restart.empty()) load_initial_state();
+  if (cs_.initial) load_initial_state(explicit_kinds, opt_.restart.empty());
 
   // Stability guard, over every kind of particle this level will hold.
   std::vector<ParticleKind> kinds;
@@ -145,9 +170,9 @@ void Level::setup() {
     kinds.push_back(k);
     r_max = std::max(r_max, k.r_max);
   }
-  for (size_t i = 0; i < p_.size(); ++i) {
-    kinds.push_back({p_.material[i], p_.radius[i], p_.radius[i], norm(p_.v[i])});
-    r_max = std::max(r_max, p_.radius[i]);
+  for (const auto& k : explicit_kinds) {
+    kinds.push_back(k);
+    r_max = std::max(r_max, k.r_max);
   }
   std::vector<int> wall_mats;
   for (size_t w = 0; w < walls_.walls(); ++w) wall_mats.push_back(walls_.info(w).material);
@@ -159,19 +184,21 @@ void Level::setup() {
 
   skin_ = lvl_.skin > 0.0 ? lvl_.skin : 0.5 * r_max;
   nl_.set_skin(skin_);
+  r_max_ = r_max;
+  ghost_cutoff_ = 2.0 * r_max_ + skin_;
   log_->info("neighbour search: skin {:.4g} m, rebuild when a particle moved {:.4g} m", skin_, 0.5 * skin_);
 
   setup_measurements();
   events_.assign(cs_.events.size(), EventState{});
   resolve_end_time();
 
-  if (!opt_.out_dir.empty()) {
+  if (!opt_.out_dir.empty() && comm_.rank() == 0) {
     std::filesystem::copy_file(cs_.path, opt_.out_dir / "case.toml",
                                std::filesystem::copy_options::overwrite_existing);
     std::filesystem::create_directories(opt_.out_dir / "probes");
   }
   if (!opt_.restart.empty()) load_checkpoint(opt_.restart);
-  if (!opt_.out_dir.empty())
+  if (!opt_.out_dir.empty() && comm_.rank() == 0)
     snaps_ = std::make_unique<io::SnapshotSeries>(opt_.out_dir, "particles", !opt_.restart.empty());
 }
 
@@ -282,14 +309,14 @@ void Level::setup_measurements() {
     GridRun g{CellGrid(q), 1, s.output_interval, s.output_interval, 0, nullptr};
     const double si = s.sample_interval > 0.0 ? s.sample_interval : s.output_interval;
     g.sample_every = std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(si / dt_)));
-    if (!opt_.out_dir.empty())
+    if (!opt_.out_dir.empty() && comm_.rank() == 0)
       g.series = std::make_unique<io::GridSeries>(opt_.out_dir, q.name, q.origin, q.h, q.nx, q.ny, q.nz,
                                                   !opt_.restart.empty());
     grids_.push_back(std::move(g));
   }
 }
 
-void Level::load_initial_state() {
+void Level::load_initial_state(std::vector<ParticleKind>& kinds, bool add) {
   const auto& in = *cs_.initial;
   io::H5Reader r(in.file);
   const auto x = r.read_vec3("position");
@@ -300,6 +327,7 @@ void Level::load_initial_state() {
   if (v.size() != x.size() || w.size() != x.size() || rad.size() != x.size() || ids.size() != x.size())
     throw std::runtime_error(in.file + ": position, velocity, omega, radius and id differ in length");
   const int mat = mt_.index_of(in.material);
+  ParticleKind kind{mat, std::numeric_limits<double>::max(), 0.0, 0.0};
   for (size_t i = 0; i < x.size(); ++i) {
     ParticleInit pi;
     pi.id = ids[i];
@@ -309,15 +337,24 @@ void Level::load_initial_state() {
     pi.x = x[i];
     pi.v = v[i];
     pi.omega = w[i];
-    add_particle(pi);
+    kind.r_min = std::min(kind.r_min, pi.radius);
+    kind.r_max = std::max(kind.r_max, pi.radius);
+    kind.speed = std::max(kind.speed, norm(pi.v));
     ++explicit_count_;
-    explicit_mass_ += p_.mass.back();
+    explicit_mass_ += pi.density * 4.0 / 3.0 * std::numbers::pi * pi.radius * pi.radius * pi.radius;
+    next_id_ = std::max(next_id_, pi.id + 1);
+    if (add && dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
+  if (!x.empty()) kinds.push_back(kind);
   log_->info("initial state: {} particles from {}", x.size(), in.file);
 }
 
 void Level::add_particle(const ParticleInit& pi) {
   p_.add(pi);
+  if (history_loaded_) {  // keep the per-particle history aligned with the particles
+    pair_hist_.append(nullptr, nullptr, 0);
+    wall_hist_.append(nullptr, nullptr, 0);
+  }
   p_.f.back() = p_.mass.back() * gravity_;
   next_id_ = std::max(next_id_, pi.id + 1);
   rebuild_pending_ = true;

@@ -27,41 +27,51 @@ int CellGrid::cell_of(const Vec3& x) const {
   return (iz * prm_.ny + iy) * prm_.nx + ix;
 }
 
-void CellGrid::sample(const Particles& p, const std::vector<double>& stress6) {
+void CellGrid::local_sample(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
+                            std::vector<double>& max_speed) const {
   const size_t nc = prm_.cells();
-  const size_t n = p.n_local();
-  const double vcell = prm_.h * prm_.h * prm_.h;
-  cell_.resize(n);
-  m_.assign(nc, 0.0);
-  vol_.assign(nc, 0.0);
-  p_.assign(nc, Vec3{});
-  std::vector<double> sig(6 * nc, 0.0);
-  for (size_t i = 0; i < n; ++i) {
+  sums.assign(kSums * nc, 0.0);
+  max_speed.assign(nc, 0.0);
+  for (size_t i = 0; i < p.n_local(); ++i) {
     const int c = cell_of(p.x[i]);
-    cell_[i] = c;
     if (c < 0) continue;
-    const auto cc = static_cast<size_t>(c);
-    const double r = p.radius[i];
-    m_[cc] += p.mass[i];
-    vol_[cc] += 4.0 / 3.0 * std::numbers::pi * r * r * r;
-    p_[cc] += p.mass[i] * p.v[i];
-    st_.count[cc] += 1.0;
-    st_.max_speed[cc] = std::max(st_.max_speed[cc], norm(p.v[i]));
+    double* s = &sums[kSums * static_cast<size_t>(c)];
+    const double m = p.mass[i], r = p.radius[i];
+    const Vec3& v = p.v[i];
+    s[0] += m;
+    s[1] += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+    s[2] += 1.0;
+    s[3] += m * v.x;
+    s[4] += m * v.y;
+    s[5] += m * v.z;
+    add_dyad(s + 6, m * v, v);
     if (!stress6.empty())
-      for (int k = 0; k < 6; ++k) sig[6 * cc + static_cast<size_t>(k)] += stress6[6 * i + static_cast<size_t>(k)];
+      for (size_t k = 0; k < 6; ++k) s[12 + k] += stress6[6 * i + k];
+    max_speed[static_cast<size_t>(c)] = std::max(max_speed[static_cast<size_t>(c)], norm(v));
   }
-  for (size_t i = 0; i < n; ++i) {
-    if (cell_[i] < 0) continue;
-    const auto cc = static_cast<size_t>(cell_[i]);
-    const Vec3 u = p_[cc] * (1.0 / m_[cc]);
-    const Vec3 vp = p.v[i] - u;
-    add_dyad(&sig[6 * cc], p.mass[i] * vp, vp);
-  }
+}
+
+void CellGrid::add_sample(const std::vector<double>& sums, const std::vector<double>& max_speed) {
+  const size_t nc = prm_.cells();
+  const double vcell = prm_.h * prm_.h * prm_.h;
   for (size_t c = 0; c < nc; ++c) {
-    st_.phi[c] += vol_[c] / vcell;
-    st_.mass[c] += m_[c];
-    st_.momentum[c] += p_[c];
-    for (size_t k = 0; k < 6; ++k) st_.stress6[6 * c + k] += sig[6 * c + k] / vcell;
+    const double* s = &sums[kSums * c];
+    const double m = s[0];
+    const Vec3 mom{s[3], s[4], s[5]};
+    st_.mass[c] += m;
+    st_.phi[c] += s[1] / vcell;
+    st_.count[c] += s[2];
+    st_.momentum[c] += mom;
+    st_.max_speed[c] = std::max(st_.max_speed[c], max_speed[c]);
+    // Kinetic part about the cell's mean velocity u: sum m v v - M u u.
+    double kin[6] = {s[6], s[7], s[8], s[9], s[10], s[11]};
+    if (m > 0.0) {
+      const Vec3 u = mom * (1.0 / m);
+      double uu[6] = {0, 0, 0, 0, 0, 0};
+      add_dyad(uu, m * u, u);
+      for (int k = 0; k < 6; ++k) kin[k] -= uu[k];
+    }
+    for (size_t k = 0; k < 6; ++k) st_.stress6[6 * c + k] += (s[12 + k] + kin[k]) / vcell;
   }
   ++st_.samples;
 }

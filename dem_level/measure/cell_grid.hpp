@@ -40,8 +40,15 @@ class CellGrid {
   const GridParams& params() const { return prm_; }
   int cell_of(const Vec3& x) const;  // -1 outside
 
-  // stress6: per-particle contact dyads (6 per particle) accumulated by the force kernels.
-  void sample(const Particles& p, const std::vector<double>& stress6);
+  // One sample in two parts so that ranks can sum their parts in between:
+  // local_sample() fills `sums` (kSums values per cell, add over ranks) and
+  // `max_speed` (take the maximum over ranks); add_sample() turns the global
+  // sums into this sample's cell values. stress6: per-particle contact dyads
+  // (6 per particle) accumulated by the force kernels.
+  static constexpr size_t kSums = 20;  // mass, volume, count, momentum(3), sum m v v (6), contact (6)
+  void local_sample(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
+                    std::vector<double>& max_speed) const;
+  void add_sample(const std::vector<double>& sums, const std::vector<double>& max_speed);
   GridAverages take_averages();  // averages since the last call, then resets
   State& state() { return st_; }
   const State& state() const { return st_; }
@@ -49,9 +56,6 @@ class CellGrid {
  private:
   GridParams prm_;
   State st_;
-  std::vector<int32_t> cell_;
-  std::vector<double> m_, vol_;
-  std::vector<Vec3> p_;
 };
 
 }  // namespace mlcg

@@ -33,17 +33,19 @@ void MassFlowProbe::check(const Particles& p) {
     const bool backward = before > 0.0 && s <= 0.0;
     if (!forward && !backward) continue;
     if (norm2(d - s * prm_.normal) > r2) continue;
-    const double m = forward ? p.mass[i] : -p.mass[i];
-    st_.mass += m;
-    st_.total_mass += m;
+    st_.mass += forward ? p.mass[i] : -p.mass[i];
   }
 }
 
-void MassFlowProbe::advance(double t) {
-  // Close the sample when t has reached its end (within a small fraction of a step).
-  if (t + 1e-12 * prm_.sample_interval < st_.sample_start + prm_.sample_interval) return;
+bool MassFlowProbe::sample_due(double t) const {
+  // Within a small fraction of a step of the interval's end counts as reached.
+  return t + 1e-12 * prm_.sample_interval >= st_.sample_start + prm_.sample_interval;
+}
+
+void MassFlowProbe::close_sample(double t, double global_mass) {
   const double span = t - st_.sample_start;
-  st_.samples.push_back({t, span > 0.0 ? st_.mass / span : 0.0});
+  st_.samples.push_back({t, span > 0.0 ? global_mass / span : 0.0});
+  st_.total_mass += global_mass;
   st_.sample_start = t;
   st_.mass = 0.0;
 }

@@ -32,19 +32,23 @@ class MassFlowProbe {
   };
   struct State {  // everything a checkpoint needs
     double sample_start = 0.0;
-    double mass = 0.0;
-    std::vector<Sample> samples;
-    double total_mass = 0.0;
+    double mass = 0.0;             // this rank's part of the open sample
+    std::vector<Sample> samples;   // closed samples (global)
+    double total_mass = 0.0;       // net mass of the closed samples (global)
   };
 
   explicit MassFlowProbe(ProbeParams prm) : prm_(std::move(prm)) {}
 
   // After a rebuild: remember which side of the plane each nearby particle is on.
   void refresh(const Particles& p, double band);
-  // After positions changed: count crossings of the candidates.
+  // After positions changed: count crossings of the candidates (this rank's particles).
   void check(const Particles& p);
-  // At the end of a step at time t: close the sample when its interval is over.
-  void advance(double t);
+  // At time t, is the open sample's interval over? (the same answer on every rank)
+  bool sample_due(double t) const;
+  // Mass counted by this rank in the open sample.
+  double open_mass() const { return st_.mass; }
+  // Closes the open sample with the mass summed over all ranks.
+  void close_sample(double t, double global_mass);
 
   ProbeParams& params() { return prm_; }
   const ProbeParams& params() const { return prm_; }

@@ -104,9 +104,10 @@ void NeighborList::build(const Particles& p, bool with_history) {
 }
 
 bool NeighborList::needs_rebuild(const Particles& p) const {
+  // Local particles only: a ghost's owner checks it.
   if (x_build_.size() != p.size()) return true;
   const double limit = 0.25 * skin_ * skin_;
-  for (size_t i = 0; i < p.size(); ++i)
+  for (size_t i = 0; i < p.n_local(); ++i)
     if (norm2(p.x[i] - x_build_[i]) > limit) return true;
   return false;
 }
