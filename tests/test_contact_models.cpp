@@ -14,15 +14,9 @@ using namespace mlcg;
 namespace {
 
 PairCoeffs paper_coeffs(double mu, double mu_roll = 0.0) {
-  Material m{"glass", 2.5e7, 0.25, 1000.0};
-  PairCoeffs c;
-  c.e_star = effective_modulus(m, m);
-  c.g_star = effective_shear_modulus(m, m);
-  c.beta = damping_beta(0.5);
-  c.mu = mu;
-  c.mu_roll = mu_roll;
-  c.defined = true;
-  return c;
+  MaterialTable mt({Material{"glass", 2.5e7, 0.25, 1000.0}});
+  mt.set_interaction(0, 0, {0.5, mu, mu_roll});
+  return mt.pair(0, 0);
 }
 
 ContactInput oblique(double vt) {

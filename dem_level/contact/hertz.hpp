@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "contact/inline.hpp"
 #include "core/material.hpp"
 
 namespace mlcg {
@@ -20,15 +21,16 @@ struct HertzNormal {
   struct Result {
     double fn;       // signed normal force along n (positive = repulsive)
     double sqrt_rd;  // sqrt(R* d), reused by the tangential model
+    double q;        // sqrt(m* sqrt(R* d)): gamma = prefactor * q (see PairCoeffs)
   };
 
-  static inline Result eval(const PairCoeffs& c, double delta, double r_eff, double m_eff, double vn) {
+  static MLCG_INLINE Result eval(const PairCoeffs& c, double delta, double r_eff, double m_eff, double vn) {
     const double sqrt_rd = std::sqrt(r_eff * delta);
+    const double q = std::sqrt(m_eff * sqrt_rd);
     const double kn = (4.0 / 3.0) * c.e_star * sqrt_rd;
-    const double gamma_n = -c.beta * std::sqrt(5.0 * m_eff * kn);
-    double fn = kn * delta - gamma_n * vn;
+    double fn = kn * delta - c.gn * q * vn;
     if constexpr (Clamp) fn = std::max(fn, 0.0);
-    return {fn, sqrt_rd};
+    return {fn, sqrt_rd, q};
   }
 };
 

@@ -35,11 +35,11 @@ struct ContactModel {
   static constexpr bool has_history = Tangential::has_history;
   static constexpr bool has_rolling = Rolling::active;
 
-  static inline ContactForce eval(const PairCoeffs& c, double dt, const ContactInput& in, Vec3& hist) {
+  static MLCG_INLINE ContactForce eval(const PairCoeffs& c, double dt, const ContactInput& in, Vec3& hist) {
     const double vn = dot(in.v_rel, in.n);
     const auto nr = Normal::eval(c, in.delta, in.r_eff, in.m_eff, vn);
     const Vec3 vt = in.v_rel - vn * in.n;
-    const Vec3 ft = Tangential::eval(c, dt, in.n, vt, nr.sqrt_rd, in.m_eff, nr.fn, hist);
+    const Vec3 ft = Tangential::eval(c, dt, in.n, vt, nr.sqrt_rd, nr.q, nr.fn, hist);
     Vec3 roll{};
     if constexpr (has_rolling) roll = Rolling::eval(c, in.r_eff, nr.fn, in.w_rel);
     return {nr.fn * in.n + ft, ft, roll, nr.fn};

@@ -4,6 +4,7 @@
 // `rolling_friction cdt`: M_r = -mu_r R* |F_n| w_rel / |w_rel| on particle i.
 #include <cmath>
 
+#include "contact/inline.hpp"
 #include "core/material.hpp"
 #include "core/vec3.hpp"
 
@@ -12,13 +13,13 @@ namespace mlcg {
 struct NoRolling {
   static constexpr bool active = false;
   static constexpr const char* name = "none";
-  static inline Vec3 eval(const PairCoeffs&, double, double, const Vec3&) { return {}; }
+  static MLCG_INLINE Vec3 eval(const PairCoeffs&, double, double, const Vec3&) { return {}; }
 };
 
 struct RollingCDT {
   static constexpr bool active = true;
   static constexpr const char* name = "cdt";
-  static inline Vec3 eval(const PairCoeffs& c, double r_eff, double fn, const Vec3& w_rel) {
+  static MLCG_INLINE Vec3 eval(const PairCoeffs& c, double r_eff, double fn, const Vec3& w_rel) {
     const double wmag = std::sqrt(norm2(w_rel));
     if (wmag == 0.0) return {};
     return w_rel * (-c.mu_roll * r_eff * std::fabs(fn) / wmag);

@@ -35,6 +35,8 @@ void MaterialTable::set_interaction(int a, int b, const InteractionSpec& s) {
   c.beta = damping_beta(s.restitution);
   c.mu = s.friction;
   c.mu_roll = s.rolling_friction;
+  c.gn = -c.beta * std::sqrt(20.0 / 3.0 * c.e_star);
+  c.gt = -c.beta * std::sqrt(80.0 / 3.0 * c.g_star);
   c.defined = true;
   pairs_[static_cast<size_t>(a * size() + b)] = c;
   pairs_[static_cast<size_t>(b * size() + a)] = c;

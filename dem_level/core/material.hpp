@@ -28,6 +28,11 @@ struct PairCoeffs {
   double beta = 0.0;     // ln e / sqrt(ln^2 e + pi^2)  (<= 0)
   double mu = 0.0;
   double mu_roll = 0.0;
+  // Damping prefactors: gamma_n = gn * q and gamma_t = gt * q with
+  // q = sqrt(m* sqrt(R* delta)), since sqrt(5 m* k_n) = sqrt(20/3 E*) q and
+  // sqrt(10/3 m* k_t) = sqrt(80/3 G*) q; one square root serves both.
+  double gn = 0.0;  // -beta sqrt(20/3 E*)
+  double gt = 0.0;  // -beta sqrt(80/3 G*)
   bool defined = false;  // false: no interaction given for this pair
 };
 

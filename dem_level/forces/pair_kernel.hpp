@@ -47,7 +47,9 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
       const double rj = rad[j];
       const double radsum = ri + rj;
       if (rsq >= radsum * radsum) {
-        if constexpr (Model::has_history) hist[k] = Vec3{};
+        // Only pairs that touched last step hold history: avoid the store otherwise.
+        if constexpr (Model::has_history)
+          if (hist[k].x != 0.0 || hist[k].y != 0.0 || hist[k].z != 0.0) hist[k] = Vec3{};
         continue;
       }
       const double r = std::sqrt(rsq);
