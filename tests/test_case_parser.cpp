@@ -623,3 +623,35 @@ TEST(CaseParserErrors, LoadCaseMissingFile) {
 }
 
 }  // namespace
+
+// ---- process grid, time step scaling, initial state -------------------------------
+
+TEST(CaseParser, DtAlpha1ScalesWithAlphaAndProcessorsAreRead) {
+  std::string text = base();
+  text.replace(text.find("dt = 1e-6"), 9, "dt_alpha1 = 1e-6\nprocessors = [2, 1, 1]\nbalance = false");
+  const CaseSpec cs = parse_case(text, kFixture);
+  EXPECT_DOUBLE_EQ(cs.levels[0].dt, 1e-6 * cs.levels[0].alpha);
+  EXPECT_EQ(cs.levels[0].processors, (std::vector<int>{2, 1, 1}));
+  EXPECT_FALSE(cs.levels[0].balance);
+}
+
+TEST(CaseParserErrors, DtAndDtAlpha1Together) {
+  expect_error(Edit{"dt = 1e-6", "dt = 1e-6\ndt_alpha1 = 1e-6", "dt_alpha1"}, "levels[0].dt_alpha1",
+               "both dt and dt_alpha1 given");
+}
+
+TEST(CaseParserErrors, ProcessorGridMustMatchRanks) {
+  expect_error(Edit{"ranks = 2", "ranks = 2\nprocessors = [2, 2, 1]", "processors"}, "levels[0].processors",
+               "makes 4 boxes but ranks = 2");
+}
+
+TEST(CaseParserErrors, ProcessorGridNeedsWholeNumbers) {
+  expect_error(Edit{"ranks = 2", "ranks = 2\nprocessors = [2, 0.5, 2]", "processors"}, "levels[0].processors",
+               "whole number >= 1");
+}
+
+TEST(CaseParserErrors, InitialStateFileMustExist) {
+  expect_error(Edit{"[output]", "[initial]\nfile = \"no_such.h5\"\nmaterial = \"glass\"\n\n[output]",
+                    "file = \"no_such.h5\""},
+               "initial.file", "no_such.h5' does not exist");
+}
