@@ -123,7 +123,7 @@ void Level::setup() {
              choice_.clamp_normal ? " (normal force clamped)" : "");
 
   // The process grid; the boundaries start uniform and are balanced at the first rebuild.
-  std::array<int, 3> grid = Decomposition::default_grid(comm_.size(), dom_lo_, dom_hi_);
+  std::array<int, 3> grid = Decomposition::default_grid(comm_.size(), dom_lo_, dom_hi_, gravity_);
   if (!lvl_.processors.empty()) grid = {lvl_.processors[0], lvl_.processors[1], lvl_.processors[2]};
   if (grid[0] * grid[1] * grid[2] != comm_.size())
     throw std::runtime_error(fmt::format("{}: levels[{}].processors = [{}, {}, {}] needs {} MPI ranks, but the level "

@@ -15,19 +15,35 @@ Decomposition::Decomposition(std::array<int, 3> grid, const Vec3& lo, const Vec3
   }
 }
 
-std::array<int, 3> Decomposition::default_grid(int ranks, const Vec3& lo, const Vec3& hi) {
-  const Vec3 L = hi - lo;
+std::array<int, 3> Decomposition::default_grid(int ranks, const Vec3& lo, const Vec3& hi, const Vec3& gravity) {
+  Vec3 L = hi - lo;
+  int down = -1;  // the axis gravity mostly points along
+  const double gmax = std::max({std::fabs(gravity.x), std::fabs(gravity.y), std::fabs(gravity.z)});
+  if (gmax > 0.0)
+    for (int d = 0; d < 3; ++d)
+      if (std::fabs(gravity[d]) == gmax) down = d;
+  if (down >= 0) {
+    double width = 0.0;
+    for (int d = 0; d < 3; ++d)
+      if (d != down) width = std::max(width, L[d]);
+    L[down] = std::min(L[down], width);
+  }
   std::array<int, 3> best{ranks, 1, 1};
   double best_area = std::numeric_limits<double>::max();
+  int best_down = ranks + 1;
   for (int px = 1; px <= ranks; ++px) {
     if (ranks % px) continue;
     for (int py = 1; py <= ranks / px; ++py) {
       if ((ranks / px) % py) continue;
       const int pz = ranks / px / py;
+      const std::array<int, 3> g{px, py, pz};
       const double area = (px - 1) * L.y * L.z + (py - 1) * L.x * L.z + (pz - 1) * L.x * L.y;
-      if (area < best_area - 1e-12 * std::fabs(best_area)) {
+      const int along = down >= 0 ? g[static_cast<size_t>(down)] : 1;
+      const double tol = 1e-9 * std::max(area, best_area < 1e300 ? best_area : area);
+      if (area < best_area - tol || (std::fabs(area - best_area) <= tol && along < best_down)) {
         best_area = area;
-        best = {px, py, pz};
+        best = g;
+        best_down = along;
       }
     }
   }
