@@ -1,0 +1,43 @@
+#pragma once
+// What one measured run reports, read from dem_level's summary.json / series.csv or from a LIGGGHTS log.
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace mlcg::bench {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+struct RunMetrics {
+  bool ok = false;
+  std::string error;           // why not ok (first error line of the program)
+  int ranks = 0;
+  long steps = 0;
+  long particles = 0;          // at the start of the run
+  long particles_end = 0;
+  double loop_seconds = 0.0;   // time-stepping wall time (setup and final output excluded)
+  double rate = 0.0;           // particle-steps per second (all ranks)
+  double neighbours = kNaN;    // neighbour-list pairs per particle (see the table notes)
+  double rebuilds_per_1000 = kNaN;
+  double bytes_per_particle = kNaN;
+  // Share of loop_seconds, in this order: force, neighbour, comm, measure, other (NaN = not reported).
+  double share[5] = {kNaN, kNaN, kNaN, kNaN, kNaN};
+  double final_kinetic_energy = kNaN;  // [J]
+  long dangerous_builds = -1;          // LIGGGHTS only
+  double background_cores = kNaN;      // cores other processes kept busy meanwhile (machine load)
+  std::vector<std::string> warnings;
+  std::string breakdown;               // the program's own time breakdown, as text
+};
+
+// dem_level run folder (summary.json, series.csv, log.txt); `exit_code` of the process.
+RunMetrics parse_mlcg(const std::filesystem::path& run_dir, const std::filesystem::path& console_log, int exit_code);
+// LIGGGHTS log (the `-log` file, or the console output).
+RunMetrics parse_liggghts(const std::filesystem::path& log, const std::filesystem::path& console_log, int exit_code);
+
+// First line of `file` that contains `needle` (trimmed), or "".
+std::string first_line_with(const std::filesystem::path& file, const std::string& needle);
+
+}  // namespace mlcg::bench

@@ -1,0 +1,57 @@
+#pragma once
+// The benchmark scenes, written once for MLCG (case TOML) and once for LIGGGHTS (data file + input
+// script) from the same numbers.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include "geometry.hpp"
+#include "snapshot.hpp"
+
+namespace mlcg::bench {
+
+// The paper's material (Queteschiner et al. 2017, Table 1), as cases/silo_small/reference.toml.
+struct Material {
+  double youngs_modulus = 2.5e7;  // particles and walls [Pa]
+  double poisson_ratio = 0.25;
+  double density = 1000.0;        // particles [kg/m^3]
+  double restitution = 0.5;       // particle-particle and particle-wall
+  double friction_pp = 0.2;
+  double friction_pw = 0.175;
+};
+
+struct BenchParams {
+  SiloGeometry geometry;
+  Material material;
+  int particles = 29451;
+  double radius = 1.4e-3;          // [m]
+  double dt = 1e-6;                // measured runs [s]
+  double skin = 0.7e-3;            // neighbour skin of both codes [m] (0.5 radius)
+  long steps = 5000;
+  // Preparation of the settled bed (our solver; cached).
+  double prepare_dt = 9e-6;        // < 20 % of the Rayleigh time (9.6e-6 s)
+  double settle_speed = 0.005;     // mass-weighted mean speed [m/s] that counts as settled
+  double settle_extra = 0.02;      // simulated seconds after that
+  double settle_latest = 2.0;      // give up waiting at this time (with a warning)
+  std::int64_t seed = 2017;
+};
+
+enum class Scene { Bed, Discharge };
+const char* scene_name(Scene s);
+const char* scene_title(Scene s);
+
+struct Files {
+  std::filesystem::path silo_stl, lid_stl;
+};
+
+// Fill the silo (lid closed) by pouring close above the heap and settle it, at prepare_dt.
+std::string prepare_case(const BenchParams& p, const Files& f);
+// A measured MLCG scene: the bed snapshot, the silo mesh (+ lid for Scene::Bed), dt, skin, steps,
+// no probes or grids, minimal output.
+std::string mlcg_case(const BenchParams& p, const Files& f, Scene s, int ranks, const std::filesystem::path& bed_h5);
+// LIGGGHTS: the same particles (ids 1..n in snapshot order, velocities and spins included).
+void write_liggghts_data(const std::filesystem::path& file, const BenchParams& p, const Snapshot& bed);
+std::string liggghts_input(const BenchParams& p, const Files& f, Scene s, int ranks,
+                           const std::filesystem::path& data_file);
+
+}  // namespace mlcg::bench
