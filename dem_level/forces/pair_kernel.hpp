@@ -72,8 +72,11 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
         ti += cf.roll;
         t[j] -= cf.roll;
       }
-      const double ratio = in.delta / std::min(ri, rj);
-      if (ratio > worst) { worst = ratio; worst_i = static_cast<int32_t>(i); }
+      const double rmin = std::min(ri, rj);
+      if (in.delta > worst * rmin) {  // divide only for a new largest overlap
+        worst = in.delta / rmin;
+        worst_i = static_cast<int32_t>(i);
+      }
       ++contacts;
       if constexpr (Stress) {
         const Vec3 half = 0.5 * d;

@@ -36,9 +36,8 @@ inline void wall_contact(size_t i, const Particles& p, const Vec3& point, const 
   ti -= ri * cross(n, cf.ft);
   if constexpr (Model::has_rolling) ti += cf.roll;
   wall_force -= cf.force;
-  const double ratio = in.delta / ri;
-  if (ratio > st.max_overlap_ratio) {
-    st.max_overlap_ratio = ratio;
+  if (in.delta > st.max_overlap_ratio * ri) {  // divide only for a new largest overlap
+    st.max_overlap_ratio = in.delta / ri;
     st.worst_particle = static_cast<int32_t>(i);
   }
   ++st.wall_contacts;
