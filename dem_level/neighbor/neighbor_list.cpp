@@ -97,8 +97,15 @@ void NeighborList::build(const Particles& p, bool with_history) {
     std::sort(neigh.begin() + first[i], neigh.end());
     first[i + 1] = static_cast<int32_t>(neigh.size());
   }
-  if (with_history) hist.assign(neigh.size(), Vec3{});
-  else hist.clear();
+  // Memory: the list keeps little slack, the bins are only needed while building.
+  if (neigh.capacity() > neigh.size() + neigh.size() / 4) neigh.shrink_to_fit();
+  if (with_history) {
+    hist.assign(neigh.size(), Vec3{});
+    if (hist.capacity() > hist.size() + hist.size() / 4) hist.shrink_to_fit();
+  } else {
+    hist.clear();
+  }
+  bins_ = CellBins{};
   x_build_.assign(p.x.begin(), p.x.end());
   ++builds_;
 }

@@ -60,8 +60,7 @@ class NeighborList {
   // Fill hist[] for the freshly built list from per-particle storage.
   void load_history(const Particles& p, const ContactHistory& in);
 
-  const CellBins& bins() const { return bins_; }
-  size_t extra_bytes() const { return x_build_.capacity() * sizeof(Vec3) + bins_.bytes(); }
+  size_t extra_bytes() const { return x_build_.capacity() * sizeof(Vec3); }
   size_t pairs() const { return neigh.size(); }
   uint64_t builds() const { return builds_; }
   void set_builds(uint64_t b) { builds_ = b; }

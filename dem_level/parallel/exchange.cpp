@@ -100,6 +100,11 @@ void GhostExchange::build(const Comm& comm, const Decomposition& dec, Particles&
     }
   }
   const auto in = comm.alltoall(out);
+  // Room for every ghost at once: appending to exactly sized arrays would double them.
+  size_t incoming = 0;
+  for (const auto& buf : in) incoming += buf.size();
+  constexpr size_t kGhostBytes = 3 * sizeof(Vec3) + 2 * sizeof(double) + sizeof(int64_t) + sizeof(int32_t);
+  p.reserve(p.size() + incoming / kGhostBytes);
   for (size_t r = 0; r < nr; ++r) {
     const size_t first = p.size();
     ByteReader rd(in[r]);
