@@ -35,12 +35,25 @@ struct ContactModel {
   static constexpr bool has_history = Tangential::has_history;
   static constexpr bool has_rolling = Rolling::active;
 
-  static MLCG_INLINE ContactForce eval(const PairCoeffs& c, double dt, const ContactInput& in, Vec3& hist) {
+  // The same law with the results written through references: a returned
+  // aggregate keeps the compiler from vectorizing a loop over contacts.
+  static MLCG_INLINE void eval_into(const PairCoeffs& c, double dt, const ContactInput& in, Vec3& hist, Vec3& force,
+                                    Vec3& ft, Vec3& roll, double& fn) {
     const double vn = dot(in.v_rel, in.n);
     const auto nr = Normal::eval(c, in.delta, in.r_eff, in.m_eff, vn);
     const Vec3 vt = in.v_rel - vn * in.n;
-    const Vec3 ft = Tangential::eval(c, dt, in.n, vt, nr.sqrt_rd, nr.q, nr.fn, hist);
-    Vec3 roll{};
+    ft = Tangential::eval(c, dt, in.n, vt, nr.sqrt_rd, nr.q, nr.fn, hist);
+    if constexpr (has_rolling) roll = Rolling::eval(c, in.r_eff, nr.fn, in.w_rel);
+    force = nr.fn * in.n + ft;
+    fn = nr.fn;
+  }
+
+  static MLCG_INLINE ContactForce eval(const PairCoeffs& c, double dt, const ContactInput& in, Vec3& hist) {
+    ContactForce out{};
+    eval_into(c, dt, in, hist, out.force, out.ft, out.roll, out.fn);
+    return out;
+  }
+};
     if constexpr (has_rolling) roll = Rolling::eval(c, in.r_eff, nr.fn, in.w_rel);
     return {nr.fn * in.n + ft, ft, roll, nr.fn};
   }

@@ -21,8 +21,8 @@ struct RollingCDT {
   static constexpr const char* name = "cdt";
   static MLCG_INLINE Vec3 eval(const PairCoeffs& c, double r_eff, double fn, const Vec3& w_rel) {
     const double wmag = std::sqrt(norm2(w_rel));
-    if (wmag == 0.0) return {};
-    return w_rel * (-c.mu_roll * r_eff * std::fabs(fn) / wmag);
+    const double spinning = wmag > 0.0 ? 1.0 : 0.0;  // a product with 0/1 vectorizes, a branch does not
+    return w_rel * (-c.mu_roll * r_eff * std::fabs(fn) * spinning / (wmag + (1.0 - spinning)));
   }
 };
 

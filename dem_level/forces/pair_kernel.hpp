@@ -2,8 +2,17 @@
 // Particle-particle forces over the half neighbour list. Instantiated once per
 // contact model and per "accumulate stress" choice, so a step without
 // measurements or a model without history/rolling carries none of that code.
+//
+// Particles are processed in blocks of 32. The touching pairs of a block are
+// first gathered into small structure-of-arrays buffers (they fit in L1), then
+// the contact law runs over them in one flat loop without branches, which the
+// compiler vectorizes (one contact alone is a long chain of dependent square
+// roots and divisions), then forces, torques and history are scattered back.
+// The law is the same composed sub-models (contact/); a contact's result does
+// not depend on its place in the block.
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "contact/model.hpp"
 #include "core/material.hpp"
@@ -13,79 +22,203 @@
 
 namespace mlcg {
 
+// The gathered contacts of one block (per thread, reused across steps).
+struct ContactBlock {
+  std::vector<int32_t> i, j, k, cix;
+  std::vector<double> dx, dy, dz, ri, rj, mi, mj;
+  std::vector<double> dvx, dvy, dvz;  // v_i - v_j
+  std::vector<double> wsx, wsy, wsz;  // r_i w_i + r_j w_j
+  std::vector<double> wrx, wry, wrz;  // w_i - w_j (rolling only)
+  std::vector<double> hx, hy, hz;     // tangential overlap, in and out
+  std::vector<double> fx, fy, fz;     // force on i
+  std::vector<double> tx, ty, tz;     // n x f_t (torques are -r (n x f_t))
+  std::vector<double> mx, my, mz;     // rolling torque on i
+  std::vector<double> delta;
+  void reserve(size_t n) {
+    if (i.size() >= n) return;
+    for (auto* v : {&i, &j, &k, &cix}) v->resize(n);
+    for (auto* v : {&dx, &dy, &dz, &ri, &rj, &mi, &mj, &dvx, &dvy, &dvz, &wsx, &wsy, &wsz, &wrx, &wry, &wrz, &hx,
+                    &hy, &hz, &fx, &fy, &fz, &tx, &ty, &tz, &mx, &my, &mz, &delta})
+      v->resize(n);
+  }
+};
+
+inline ContactBlock& scratch_contacts() {
+  static thread_local ContactBlock b;
+  return b;
+}
+
+// The contact law over contacts [0, n) of a block: one flat loop, no branches.
+// Uniform: one material pair, its coefficients a loop invariant. The arrays are
+// parameters because GCC honours __restrict only there, and without it the
+// loop is not vectorized.
+template <class Model, bool Uniform>
+void contact_law_loop(int32_t n, const PairCoeffs* coeffs, const int32_t* __restrict cix, double dt,
+                      const double* __restrict dx, const double* __restrict dy, const double* __restrict dz,
+                      const double* __restrict ri, const double* __restrict rj, const double* __restrict mi,
+                      const double* __restrict mj, const double* __restrict dvx, const double* __restrict dvy,
+                      const double* __restrict dvz, const double* __restrict wsx, const double* __restrict wsy,
+                      const double* __restrict wsz, const double* __restrict wrx, const double* __restrict wry,
+                      const double* __restrict wrz, double* __restrict hx, double* __restrict hy,
+                      double* __restrict hz, double* __restrict fx, double* __restrict fy, double* __restrict fz,
+                      double* __restrict tx, double* __restrict ty, double* __restrict tz, double* __restrict mx,
+                      double* __restrict my, double* __restrict mz, double* __restrict delta) {
+  const PairCoeffs c0 = coeffs[0];
+  for (int32_t c = 0; c < n; ++c) {
+    const double r = std::sqrt(dx[c] * dx[c] + dy[c] * dy[c] + dz[c] * dz[c]);
+    const double rinv = 1.0 / r;
+    ContactInput in;
+    in.n = {dx[c] * rinv, dy[c] * rinv, dz[c] * rinv};
+    in.delta = ri[c] + rj[c] - r;
+    in.m_eff = mi[c] * mj[c] / (mi[c] + mj[c]);
+    in.r_eff = ri[c] * rj[c] / (ri[c] + rj[c]);
+    in.v_rel = Vec3{dvx[c], dvy[c], dvz[c]} - cross(Vec3{wsx[c], wsy[c], wsz[c]}, in.n);
+    if constexpr (Model::has_rolling) in.w_rel = {wrx[c], wry[c], wrz[c]};
+    Vec3 h{hx[c], hy[c], hz[c]};
+    Vec3 force, ft, roll;
+    double fn;
+    if constexpr (Uniform) Model::eval_into(c0, dt, in, h, force, ft, roll, fn);
+    else Model::eval_into(coeffs[cix[c]], dt, in, h, force, ft, roll, fn);
+    if constexpr (Model::has_history) {
+      hx[c] = h.x;
+      hy[c] = h.y;
+      hz[c] = h.z;
+    }
+    fx[c] = force.x;
+    fy[c] = force.y;
+    fz[c] = force.z;
+    tx[c] = in.n.y * ft.z - in.n.z * ft.y;
+    ty[c] = in.n.z * ft.x - in.n.x * ft.z;
+    tz[c] = in.n.x * ft.y - in.n.y * ft.x;
+    if constexpr (Model::has_rolling) {
+      mx[c] = roll.x;
+      my[c] = roll.y;
+      mz[c] = roll.z;
+    }
+    delta[c] = in.delta;
+  }
+}
+
+template <class Model, bool Uniform>
+void block_contact_forces(ContactBlock& b, int32_t n, const PairCoeffs* coeffs, double dt) {
+  contact_law_loop<Model, Uniform>(n, coeffs, b.cix.data(), dt, b.dx.data(), b.dy.data(), b.dz.data(), b.ri.data(),
+                                   b.rj.data(), b.mi.data(), b.mj.data(), b.dvx.data(), b.dvy.data(), b.dvz.data(),
+                                   b.wsx.data(), b.wsy.data(), b.wsz.data(), b.wrx.data(), b.wry.data(),
+                                   b.wrz.data(), b.hx.data(), b.hy.data(), b.hz.data(), b.fx.data(), b.fy.data(),
+                                   b.fz.data(), b.tx.data(), b.ty.data(), b.tz.data(), b.mx.data(), b.my.data(),
+                                   b.mz.data(), b.delta.data());
+}
+
 // stress6: 6 values per particle (only read when Stress), branch r_ij/2 per Eq. 8.
 template <class Model, bool Stress>
 void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double dt, double* stress6,
                  ContactStats& st) {
+  constexpr size_t kBlock = 32;  // particles per block
   const size_t n = p.n_local();
-  const Vec3* x = p.x.data();
-  const Vec3* v = p.v.data();
-  const Vec3* w = p.omega.data();
-  const double* rad = p.radius.data();
-  const double* mass = p.mass.data();
-  const int32_t* mat = p.material.data();
-  Vec3* f = p.f.data();
-  Vec3* t = p.torque.data();
-  const int32_t* neigh = nl.neigh.data();
-  Vec3* hist = Model::has_history ? nl.hist.data() : nullptr;
+  const Vec3* __restrict x = p.x.data();
+  const Vec3* __restrict v = p.v.data();
+  const Vec3* __restrict w = p.omega.data();
+  const double* __restrict rad = p.radius.data();
+  const double* __restrict mass = p.mass.data();
+  const int32_t* __restrict mat = p.material.data();
+  Vec3* __restrict f = p.f.data();
+  Vec3* __restrict t = p.torque.data();
+  const int32_t* __restrict neigh = nl.neigh.data();
+  Vec3* __restrict hist = Model::has_history ? nl.hist.data() : nullptr;
   const int nmat = mt.size();
   const PairCoeffs* coeffs = mt.pairs().data();
+  ContactBlock& b = scratch_contacts();
 
   double worst = st.max_overlap_ratio;
   int32_t worst_i = st.worst_particle;
   int64_t contacts = 0;
 
-  for (size_t i = 0; i < n; ++i) {
-    const Vec3 xi = x[i], vi = v[i], wi = w[i];
-    const double ri = rad[i], mi = mass[i];
-    const PairCoeffs* row = coeffs + mat[i] * nmat;
-    Vec3 fi{}, ti{};
-    for (int32_t k = nl.first[i], end = nl.first[i + 1]; k < end; ++k) {
-      const auto j = static_cast<size_t>(neigh[k]);
-      const Vec3 d = xi - x[j];
-      const double rsq = norm2(d);
-      const double rj = rad[j];
-      const double radsum = ri + rj;
-      if (rsq >= radsum * radsum) {
-        // Only pairs that touched last step hold history: avoid the store otherwise.
-        if constexpr (Model::has_history)
-          if (hist[k].x != 0.0 || hist[k].y != 0.0 || hist[k].z != 0.0) hist[k] = Vec3{};
-        continue;
-      }
-      const double r = std::sqrt(rsq);
-      ContactInput in;
-      in.n = d * (1.0 / r);
-      in.delta = radsum - r;
-      const double mj = mass[j];
-      in.m_eff = mi * mj / (mi + mj);
-      in.r_eff = ri * rj / radsum;
-      in.v_rel = vi - v[j] - cross(ri * wi + rj * w[j], in.n);
-      if constexpr (Model::has_rolling) in.w_rel = wi - w[j];
-      Vec3 dummy{};
-      const ContactForce cf = Model::eval(row[mat[j]], dt, in, Model::has_history ? hist[k] : dummy);
-      fi += cf.force;
-      f[j] -= cf.force;
-      const Vec3 tor = cross(in.n, cf.ft);
-      ti -= ri * tor;
-      t[j] -= rj * tor;
-      if constexpr (Model::has_rolling) {
-        ti += cf.roll;
-        t[j] -= cf.roll;
-      }
-      const double rmin = std::min(ri, rj);
-      if (in.delta > worst * rmin) {  // divide only for a new largest overlap
-        worst = in.delta / rmin;
-        worst_i = static_cast<int32_t>(i);
-      }
-      ++contacts;
-      if constexpr (Stress) {
-        const Vec3 half = 0.5 * d;
-        add_dyad(stress6 + 6 * i, half, cf.force);
-        add_dyad(stress6 + 6 * j, half, cf.force);  // (-d/2) x (-F)
+  for (size_t i0 = 0; i0 < n; i0 += kBlock) {
+    const size_t i1 = std::min(n, i0 + kBlock);
+    b.reserve(static_cast<size_t>(nl.first[i1] - nl.first[i0]));
+    // 1. Gather the touching pairs of the block. Branch-free: whether a listed
+    // pair touches is unpredictable, so every pair is written to the next slot
+    // and the slot only advances if it touches; a pair that does not touch has
+    // its history cleared by a multiply.
+    int32_t nc = 0;
+    for (size_t i = i0; i < i1; ++i) {
+      const Vec3 xi = x[i], vi = v[i], wi = w[i];
+      const double ri = rad[i], mi = mass[i];
+      const int32_t mrow = mat[i] * nmat;
+      for (int32_t k = nl.first[i], end = nl.first[i + 1]; k < end; ++k) {
+        const auto j = static_cast<size_t>(neigh[k]);
+        const Vec3 d = xi - x[j];
+        const double rj = rad[j];
+        const double radsum = ri + rj;
+        const bool touch = norm2(d) < radsum * radsum;
+        const auto c = static_cast<size_t>(nc);
+        b.i[c] = static_cast<int32_t>(i);
+        b.j[c] = static_cast<int32_t>(j);
+        b.k[c] = k;
+        b.cix[c] = mrow + mat[j];
+        b.dx[c] = d.x;
+        b.dy[c] = d.y;
+        b.dz[c] = d.z;
+        b.ri[c] = ri;
+        b.rj[c] = rj;
+        b.mi[c] = mi;
+        b.mj[c] = mass[j];
+        const Vec3 dv = vi - v[j];
+        const Vec3 ws = ri * wi + rj * w[j];
+        b.dvx[c] = dv.x;
+        b.dvy[c] = dv.y;
+        b.dvz[c] = dv.z;
+        b.wsx[c] = ws.x;
+        b.wsy[c] = ws.y;
+        b.wsz[c] = ws.z;
+        if constexpr (Model::has_rolling) {
+          const Vec3 wr = wi - w[j];
+          b.wrx[c] = wr.x;
+          b.wry[c] = wr.y;
+          b.wrz[c] = wr.z;
+        }
+        if constexpr (Model::has_history) {
+          const Vec3 h = hist[k] * (touch ? 1.0 : 0.0);
+          hist[k] = h;
+          b.hx[c] = h.x;
+          b.hy[c] = h.y;
+          b.hz[c] = h.z;
+        }
+        nc += touch ? 1 : 0;
       }
     }
-    f[i] += fi;
-    t[i] += ti;
+    // 2. The contact law, vectorized.
+    if (nmat == 1) block_contact_forces<Model, true>(b, nc, coeffs, dt);
+    else block_contact_forces<Model, false>(b, nc, coeffs, dt);
+    // 3. Scatter forces, torques and history.
+    for (int32_t q = 0; q < nc; ++q) {
+      const auto c = static_cast<size_t>(q);
+      const auto i = static_cast<size_t>(b.i[c]);
+      const auto j = static_cast<size_t>(b.j[c]);
+      const Vec3 force{b.fx[c], b.fy[c], b.fz[c]};
+      const Vec3 tor{b.tx[c], b.ty[c], b.tz[c]};
+      f[i] += force;
+      f[j] -= force;
+      t[i] -= b.ri[c] * tor;
+      t[j] -= b.rj[c] * tor;
+      if constexpr (Model::has_rolling) {
+        const Vec3 roll{b.mx[c], b.my[c], b.mz[c]};
+        t[i] += roll;
+        t[j] -= roll;
+      }
+      if constexpr (Model::has_history) hist[b.k[c]] = {b.hx[c], b.hy[c], b.hz[c]};
+      const double rmin = std::min(b.ri[c], b.rj[c]);
+      if (b.delta[c] > worst * rmin) {  // divide only for a new largest overlap
+        worst = b.delta[c] / rmin;
+        worst_i = static_cast<int32_t>(i);
+      }
+      if constexpr (Stress) {
+        const Vec3 half{0.5 * b.dx[c], 0.5 * b.dy[c], 0.5 * b.dz[c]};
+        add_dyad(stress6 + 6 * i, half, force);
+        add_dyad(stress6 + 6 * j, half, force);  // (-d/2) x (-F)
+      }
+    }
+    contacts += nc;
   }
   st.max_overlap_ratio = worst;
   st.worst_particle = worst_i;

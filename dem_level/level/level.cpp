@@ -237,14 +237,13 @@ void Level::guard(const std::string& local_problem, double badness) {
 void Level::step_once() {
   pre_step();
   double sum = 0.0;
+  bool rebuild_now = rebuild_pending_;
   {
     PhaseTimer t(times_.integrate);
-    sum = integrate_first_half(p_, dt_);
-  }
-  bool rebuild_now = rebuild_pending_;
-  if (std::isfinite(sum)) {
-    PhaseTimer t(times_.neighbor);
-    rebuild_now = rebuild_now || nl_.needs_rebuild(p_);
+    const Vec3* ref = nl_.reference(p_);
+    const FirstHalf fh = integrate_first_half(p_, dt_, gravity_, ref);
+    sum = fh.checksum;
+    rebuild_now = rebuild_now || !ref || fh.max_disp2 > 0.25 * skin_ * skin_;
   }
   {
     // One reduction decides both: does any rank need a rebuild, has any a NaN.
@@ -267,7 +266,7 @@ void Level::step_once() {
   for (const auto& g : grids_) stress = stress || (step_ + 1) % g.sample_every == 0;
   {
     PhaseTimer t(times_.force);
-    init_forces(p_, gravity_);
+    clear_ghost_forces(p_);
     forces_(fctx_, stress);
   }
   const auto& st = fctx_.stats;

@@ -53,6 +53,8 @@ class NeighborList {
   // Build the half list for the current positions; keeps x_build for the displacement test.
   void build(const Particles& p, bool with_history);
   bool needs_rebuild(const Particles& p) const;
+  // Positions at the last build (for a fused displacement test); null if they do not match p.
+  const Vec3* reference(const Particles& p) const { return x_build_.size() == p.size() ? x_build_.data() : nullptr; }
 
   // Move the history of touching pairs into per-particle storage (both partners
   // get an entry: i holds +h under id_j, j holds -h under id_i).
