@@ -54,13 +54,9 @@ struct ContactModel {
     return out;
   }
 };
-    if constexpr (has_rolling) roll = Rolling::eval(c, in.r_eff, nr.fn, in.w_rel);
-    return {nr.fn * in.n + ft, ft, roll, nr.fn};
-  }
-};
 
 // The run-time choice a case makes; resolved once into one of the
-// instantiations below (see level/dispatch.hpp).
+// instantiations in level/force_dispatch.cpp.
 struct ContactChoice {
   bool tangential_history = true;
   bool rolling_cdt = false;
