@@ -46,17 +46,7 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   }
   std::vector<char> buf;
   ByteWriter bw(buf);
-  for (size_t i = 0; i < p_.n_local(); ++i) {
-    bw.put(p_.x[i]); bw.put(p_.v[i]); bw.put(p_.f[i]); bw.put(p_.omega[i]); bw.put(p_.torque[i]);
-    bw.put(p_.radius[i]); bw.put(p_.mass[i]); bw.put(p_.inv_mass[i]); bw.put(p_.inv_inertia[i]);
-    bw.put(p_.id[i]); bw.put(p_.material[i]);
-    for (const ContactHistory* h : {&ph, &wh}) {
-      const int32_t b = h->first[i], e = h->first[i + 1];
-      bw.put(e - b);
-      bw.put_n(h->key.data() + b, static_cast<size_t>(e - b));
-      bw.put_n(h->value.data() + b, static_cast<size_t>(e - b));
-    }
-  }
+  for (size_t i = 0; i < p_.n_local(); ++i) pack_particle(bw, p_, i, ph, wh);
   std::vector<double> open_mass;  // each rank's part of each probe's open sample
   for (const auto& pr : probes_) open_mass.push_back(pr.open_mass());
   std::vector<char> om(reinterpret_cast<const char*>(open_mass.data()),
@@ -97,23 +87,7 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   hp.clear(0);
   hw.clear(0);
   ByteReader rd(all);
-  std::vector<int64_t> keys;
-  std::vector<Vec3> values;
-  while (!rd.done()) {
-    p.x.push_back(rd.get<Vec3>()); p.v.push_back(rd.get<Vec3>()); p.f.push_back(rd.get<Vec3>());
-    p.omega.push_back(rd.get<Vec3>()); p.torque.push_back(rd.get<Vec3>());
-    p.radius.push_back(rd.get<double>()); p.mass.push_back(rd.get<double>());
-    p.inv_mass.push_back(rd.get<double>()); p.inv_inertia.push_back(rd.get<double>());
-    p.id.push_back(rd.get<int64_t>()); p.material.push_back(rd.get<int32_t>());
-    for (ContactHistory* h : {&hp, &hw}) {
-      const auto c = static_cast<size_t>(rd.get<int32_t>());
-      keys.resize(c);
-      values.resize(c);
-      rd.get_n(keys.data(), c);
-      rd.get_n(values.data(), c);
-      h->append(keys.data(), values.data(), c);
-    }
-  }
+  while (!rd.done()) unpack_particle(rd, p, hp, hw);
   w.write_vec3("particles/x", p.x);
   w.write_vec3("particles/v", p.v);
   w.write_vec3("particles/f", p.f);

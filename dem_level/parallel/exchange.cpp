@@ -4,6 +4,49 @@
 
 namespace mlcg {
 
+void pack_particle(ByteWriter& w, const Particles& p, size_t i, const ContactHistory& pair_hist,
+                   const ContactHistory& wall_hist) {
+  w.put(p.x[i]); w.put(p.v[i]); w.put(p.f[i]); w.put(p.omega[i]); w.put(p.torque[i]);
+  w.put(p.radius[i]); w.put(p.mass[i]); w.put(p.inv_mass[i]); w.put(p.inv_inertia[i]);
+  w.put(p.id[i]); w.put(p.material[i]);
+  for (const ContactHistory* h : {&pair_hist, &wall_hist}) {
+    const int32_t b = h->first[i], e = h->first[i + 1];
+    w.put(e - b);
+    w.put_n(h->key.data() + b, static_cast<size_t>(e - b));
+    w.put_n(h->value.data() + b, static_cast<size_t>(e - b));
+  }
+}
+
+void unpack_particle(ByteReader& r, Particles& p, ContactHistory& pair_hist, ContactHistory& wall_hist) {
+  ParticleInit pi;
+  pi.x = r.get<Vec3>();
+  pi.v = r.get<Vec3>();
+  const Vec3 f = r.get<Vec3>();
+  pi.omega = r.get<Vec3>();
+  const Vec3 t = r.get<Vec3>();
+  pi.radius = r.get<double>();
+  const double mass = r.get<double>(), inv_m = r.get<double>(), inv_i = r.get<double>();
+  pi.id = r.get<int64_t>();
+  pi.material = r.get<int32_t>();
+  pi.density = 1.0;  // the sender's exact mass values are restored below
+  p.add(pi);
+  p.f.back() = f;
+  p.torque.back() = t;
+  p.mass.back() = mass;
+  p.inv_mass.back() = inv_m;
+  p.inv_inertia.back() = inv_i;
+  static thread_local std::vector<int64_t> keys;
+  static thread_local std::vector<Vec3> values;
+  for (ContactHistory* h : {&pair_hist, &wall_hist}) {
+    const auto c = static_cast<size_t>(r.get<int32_t>());
+    keys.resize(c);
+    values.resize(c);
+    r.get_n(keys.data(), c);
+    r.get_n(values.data(), c);
+    h->append(keys.data(), values.data(), c);
+  }
+}
+
 size_t migrate(const Comm& comm, const Decomposition& dec, Particles& p, ContactHistory& pair_hist,
                ContactHistory& wall_hist) {
   if (comm.serial()) return 0;
@@ -19,15 +62,7 @@ size_t migrate(const Comm& comm, const Decomposition& dec, Particles& p, Contact
       continue;
     }
     ByteWriter w(out[static_cast<size_t>(o)]);
-    w.put(p.x[i]); w.put(p.v[i]); w.put(p.f[i]); w.put(p.omega[i]); w.put(p.torque[i]);
-    w.put(p.radius[i]); w.put(p.mass[i]); w.put(p.inv_mass[i]); w.put(p.inv_inertia[i]);
-    w.put(p.id[i]); w.put(p.material[i]);
-    for (const ContactHistory* h : {&pair_hist, &wall_hist}) {
-      const int32_t b = h->first[i], e = h->first[i + 1];
-      w.put(e - b);
-      w.put_n(h->key.data() + b, static_cast<size_t>(e - b));
-      w.put_n(h->value.data() + b, static_cast<size_t>(e - b));
-    }
+    pack_particle(w, p, i, pair_hist, wall_hist);
   }
   const size_t left = n - keep.size();
   const auto in = comm.alltoall(out);
@@ -36,37 +71,9 @@ size_t migrate(const Comm& comm, const Decomposition& dec, Particles& p, Contact
     pair_hist.permute(keep, keep.size());
     wall_hist.permute(keep, keep.size());
   }
-  std::vector<int64_t> keys;
-  std::vector<Vec3> values;
   for (const auto& buf : in) {
     ByteReader r(buf);
-    while (!r.done()) {
-      ParticleInit pi;
-      pi.x = r.get<Vec3>();
-      pi.v = r.get<Vec3>();
-      const Vec3 f = r.get<Vec3>();
-      pi.omega = r.get<Vec3>();
-      const Vec3 t = r.get<Vec3>();
-      const double radius = r.get<double>(), mass = r.get<double>(), inv_m = r.get<double>(), inv_i = r.get<double>();
-      pi.id = r.get<int64_t>();
-      pi.material = r.get<int32_t>();
-      pi.radius = radius;
-      pi.density = 1.0;  // overwritten below: the sender's exact mass values travel with the particle
-      p.add(pi);
-      p.f.back() = f;
-      p.torque.back() = t;
-      p.mass.back() = mass;
-      p.inv_mass.back() = inv_m;
-      p.inv_inertia.back() = inv_i;
-      for (ContactHistory* h : {&pair_hist, &wall_hist}) {
-        const auto c = static_cast<size_t>(r.get<int32_t>());
-        keys.resize(c);
-        values.resize(c);
-        r.get_n(keys.data(), c);
-        r.get_n(values.data(), c);
-        h->append(keys.data(), values.data(), c);
-      }
-    }
+    while (!r.done()) unpack_particle(r, p, pair_hist, wall_hist);
   }
   return left;
 }

@@ -15,6 +15,13 @@
 
 namespace mlcg {
 
+// One particle with everything the integrator and its contact history need,
+// as bytes (migration and checkpoint gathering use the same record).
+void pack_particle(ByteWriter& w, const Particles& p, size_t i, const ContactHistory& pair_hist,
+                   const ContactHistory& wall_hist);
+// Appends the next record of r to p and the histories (no ghosts may be present).
+void unpack_particle(ByteReader& r, Particles& p, ContactHistory& pair_hist, ContactHistory& wall_hist);
+
 // Sends every local particle that another rank owns to it, with its pair and
 // wall contact history; arrivals are appended. Needs no ghosts present.
 // Returns the number of particles that left.

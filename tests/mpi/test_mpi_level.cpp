@@ -293,7 +293,6 @@ TEST(TwoRanks, SmallDischargeDoesNotDependOnTheRankCount) {
   const auto b2 = two.mass_balance();
   EXPECT_EQ(b2.inserted, b2.present + b2.removed);
   EXPECT_EQ(b2.inserted, 1200);
-  double m1 = 0.0, s1 = 0.0;
   if (rank() == 0) {
     auto cs1 = cs;
     cs1.levels[0].ranks = 1;
@@ -302,8 +301,6 @@ TEST(TwoRanks, SmallDischargeDoesNotDependOnTheRankCount) {
     Level one(cs1, solo);
     one.run();
     const auto w1 = one.probes()[0].window_stats();
-    m1 = w1.mean;
-    s1 = w1.stddev;
     std::printf("discharge: 1 rank %.4f +- %.4f kg/s, 2 ranks %.4f +- %.4f kg/s\n", w1.mean, w1.stddev, w2.mean,
                 w2.stddev);
     EXPECT_GT(w2.samples, 20u);
