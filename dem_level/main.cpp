@@ -1,7 +1,9 @@
 // dem_level: runs one coarse-grain level of a case. Normally started by
-// `mlcg run`; can be run by hand for a single-level case.
+// `mlcg run`; can be run by hand for a single-level case. In a multi-level
+// case, --level names the level and --coupler the coupler's endpoint.
 #include <mpi.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 
@@ -12,7 +14,7 @@
 
 int main(int argc, char** argv) {
   CLI::App app{"dem_level: one DEM level of an MLCG case"};
-  std::string case_file, out_dir, restart;
+  std::string case_file, out_dir, restart, level_name, coupler;
   int64_t max_steps = -1;
   bool quiet = false;
   app.add_option("case", case_file, "case file (TOML)")->required();
@@ -20,6 +22,8 @@ int main(int argc, char** argv) {
   app.add_option("--restart", restart, "continue from this checkpoint");
   app.add_option("--max-steps", max_steps, "stop after this many steps (writes a checkpoint)");
   app.add_flag("--quiet", quiet, "no progress lines on the console");
+  app.add_option("--level", level_name, "the [[levels]] entry to run (name; default: the first)");
+  app.add_option("--coupler", coupler, "coupler endpoint (tcp://HOST:PORT or ipc://PATH): run coupled");
   CLI11_PARSE(app, argc, argv);
 
   MPI_Init(&argc, &argv);
@@ -28,15 +32,26 @@ int main(int argc, char** argv) {
   int code = 0;
   try {
     const auto cs = mlcg::config::load_case(case_file);
-    if (ranks != cs.levels.front().ranks)
-      throw std::runtime_error("dem_level was started on " + std::to_string(ranks) + " MPI ranks but the case asks for " +
-                               std::to_string(cs.levels.front().ranks));
+    auto lvl = cs.levels.begin();
+    if (!level_name.empty())
+      lvl = std::find_if(cs.levels.begin(), cs.levels.end(), [&](const auto& l) { return l.name == level_name; });
+    if (lvl == cs.levels.end())
+      throw std::runtime_error("--level " + level_name + ": the case has no [[levels]] entry of that name");
+    if (cs.levels.size() > 1 && (level_name.empty() || coupler.empty()))
+      throw std::runtime_error("the case has " + std::to_string(cs.levels.size()) +
+                               " levels; a level of a multi-level case runs coupled: give --level NAME and "
+                               "--coupler ENDPOINT (`mlcg run` does)");
+    if (ranks != lvl->ranks)
+      throw std::runtime_error("dem_level was started on " + std::to_string(ranks) + " MPI ranks but level '" +
+                               lvl->name + "' of the case asks for " + std::to_string(lvl->ranks));
     mlcg::install_signal_handlers();
     mlcg::LevelOptions opt;
     opt.out_dir = out_dir;
     opt.restart = restart;
     opt.max_steps = max_steps;
     opt.quiet = quiet;
+    opt.level = level_name;
+    opt.coupler = coupler;
     mlcg::Level level(cs, opt);
     switch (level.run()) {
       case mlcg::RunStatus::Completed:

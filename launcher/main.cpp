@@ -1,5 +1,6 @@
 // mlcg: the user's entry point. `mlcg run CASE` reads the case, starts exactly
-// the processes it needs (a single-level case: one dem_level, no coupler),
+// the processes it needs (a single-level case: one dem_level, no coupler; a
+// hierarchy: the coupler and every level),
 // forwards Ctrl-C to them and prints the run's summary.
 #include <chrono>
 #include <cstdio>
@@ -12,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "config/case_parser.hpp"
+#include "hierarchy.hpp"
 #include "process.hpp"
 
 namespace fs = std::filesystem;
@@ -63,6 +65,7 @@ int run_case(const std::string& case_file, std::string out_dir, bool quiet) {
   }
   if (out_dir.empty()) out_dir = default_run_dir(case_file);
   fs::create_directories(out_dir);
+  if (cs.levels.size() > 1) return launcher::run_hierarchy(cs, case_file, out_dir, quiet);
   const auto& lvl = cs.levels.front();
   std::vector<std::string> argv;
   if (lvl.ranks > 1) argv = launcher::mpirun_prefix(lvl.ranks);
@@ -73,7 +76,7 @@ int run_case(const std::string& case_file, std::string out_dir, bool quiet) {
               case_file.c_str(), lvl.name.c_str(), lvl.alpha, lvl.ranks, out_dir.c_str());
   std::fflush(stdout);
   const pid_t child = launcher::spawn(argv);
-  const auto r = launcher::wait_forwarding(child);
+  const auto r = launcher::wait_group({{"dem_level", child}});
   print_summary(out_dir);
   if (r.exit_code != 0) std::fprintf(stderr, "mlcg: dem_level exited with code %d\n", r.exit_code);
   return r.exit_code;

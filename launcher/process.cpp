@@ -1,6 +1,7 @@
 #include "process.hpp"
 
 #include <atomic>
+#include <chrono>
 #include <cerrno>
 #include <csignal>
 #include <cstring>
@@ -35,33 +36,56 @@ pid_t spawn(const std::vector<std::string>& argv) {
   return pid;
 }
 
-ChildResult wait_forwarding(pid_t child) {
+GroupResult wait_group(const std::vector<NamedChild>& children, double grace) {
   struct sigaction sa {};
   sa.sa_handler = remember_signal;
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
-  ChildResult r;
-  bool forwarded = false;
-  while (true) {
-    int status = 0;
-    const pid_t w = waitpid(child, &status, WNOHANG);
-    if (w == child) {
-      if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-      if (WIFSIGNALED(status)) {
-        r.signalled = true;
-        r.exit_code = 128 + WTERMSIG(status);
+  GroupResult r;
+  std::vector<bool> done(children.size(), false);
+  bool stopping = false;
+  auto stop_at = std::chrono::steady_clock::time_point::max();
+  const auto stop_all = [&](int sig) {
+    for (size_t c = 0; c < children.size(); ++c)
+      if (!done[c]) kill(-children[c].pid, sig);
+  };
+  for (;;) {
+    size_t running = 0;
+    for (size_t c = 0; c < children.size(); ++c) {
+      if (done[c]) continue;
+      int status = 0;
+      const pid_t w = waitpid(children[c].pid, &status, WNOHANG);
+      if (w != children[c].pid) {
+        ++running;
+        continue;
       }
-      break;
+      done[c] = true;
+      const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      if (code != 0 && r.failed.empty() && !stopping) {
+        r.failed = children[c].name;
+        r.exit_code = code;
+      }
+      if (code != 0 && !stopping) {
+        stopping = true;
+        stop_all(SIGTERM);
+        stop_at = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<int64_t>(grace * 1000));
+      }
     }
-    if (w < 0 && errno != EINTR) break;
-    const int s = g_signal.load();
-    if (s != 0 && !forwarded) {
-      kill(-child, SIGTERM);  // the whole group: mpirun and its ranks, or the level
-      forwarded = true;
+    if (running == 0) break;
+    if (g_signal.load() != 0 && !stopping) {
+      r.interrupted = true;
+      stopping = true;
+      stop_all(SIGTERM);
+      stop_at = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<int64_t>(grace * 1000));
+    }
+    if (std::chrono::steady_clock::now() > stop_at) {
+      stop_all(SIGKILL);
+      stop_at = std::chrono::steady_clock::time_point::max();
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
+  if (r.interrupted && r.exit_code == 0) r.exit_code = 130;
   return r;
 }
 

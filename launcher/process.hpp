@@ -8,15 +8,23 @@
 
 namespace mlcg::launcher {
 
-struct ChildResult {
-  int exit_code = -1;   // exit status, or 128 + signal number
-  bool signalled = false;
-};
-
 // Starts argv[0] with the arguments (PATH is searched). Throws on failure to start.
 pid_t spawn(const std::vector<std::string>& argv);
-// Waits for the child, forwarding SIGINT/SIGTERM to it meanwhile.
-ChildResult wait_forwarding(pid_t child);
+
+// A child with a name for messages ("coupler", "level 'fine'").
+struct NamedChild {
+  std::string name;
+  pid_t pid = -1;
+};
+struct GroupResult {
+  int exit_code = 0;        // 0, or the exit code of the first child that failed
+  std::string failed;       // name of that child; empty when all succeeded
+  bool interrupted = false; // SIGINT/SIGTERM reached the launcher
+};
+// Waits for every child, forwarding SIGINT/SIGTERM to all of them. When one
+// exits non-zero the others are sent SIGTERM, and SIGKILL after `grace`
+// seconds, so no process of the run outlives it.
+GroupResult wait_group(const std::vector<NamedChild>& children, double grace = 15.0);
 
 // The folder holding the running executable (to find dem_level beside mlcg).
 std::string own_directory();

@@ -1,8 +1,8 @@
 // The case file: the top level, the physics tables ([[materials]],
 // [[interactions]], [contact], [[levels]], [domain], [output], [stability],
 // [time]) and the checks that span tables. Walls, insertion, events, probes and
-// grids are read in case_parser_scene.cpp; the typed key readers live in
-// case_parser_read.cpp.
+// grids are read in case_parser_scene.cpp, [coupling] in case_parser_coupling.cpp;
+// the typed key readers live in case_parser_read.cpp.
 #include "config/case_parser.hpp"
 
 #include <algorithm>
@@ -135,12 +135,13 @@ void read_levels(const Table& root, CaseSpec& spec, Names& names) {
     spec.levels.push_back(l);
   }
   if (tables.empty()) fail(root.doc(), root.line("levels"), "levels", "no levels; give one [[levels]] entry");
-  // The parsing above is general; running more than one level is not (yet).
-  if (tables.size() > 1)
+  // More than one level runs only coupled; read_coupling checks the rest.
+  if (tables.size() > 1 && !root.has("coupling"))
     fail(root.doc(), tables[1].line(), "levels",
          std::to_string(tables.size()) +
-             " [[levels]] entries given, but multi-level cases need the coupler (not yet available); "
-             "give exactly one [[levels]] entry");
+             " [[levels]] entries given, but no [coupling] section; a multi-level case needs one: add [coupling] "
+             "with one [[coupling.regions]] entry (coarse, fine, min, max) per finer level, or give exactly one "
+             "[[levels]] entry");
 }
 
 void read_domain(const Table& root, CaseSpec& spec) {
@@ -285,7 +286,8 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   }
   const Table root(doc, tbl, "");
   root.allow({"title", "seed", "gravity", "materials", "interactions", "contact", "levels", "domain", "walls",
-              "insertion", "particles", "initial", "events", "probes", "grids", "output", "stability", "time"},
+              "insertion", "particles", "initial", "events", "probes", "grids", "output", "stability", "time",
+              "coupling"},
              "the top level");
   for (const char* k : {"materials", "interactions", "levels"})
     if (!root.has(k)) fail(doc, 1, k, "missing required table; add at least one [[" + std::string(k) + "]] entry");
@@ -309,6 +311,7 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   read_interactions(root, spec, names);
   read_levels(root, spec, names);
   read_domain(root, spec);
+  read_coupling(root, spec, names);
   read_walls(root, spec, names);
   read_insertions(root, spec, names);
   read_particles(root, spec, names);

@@ -124,6 +124,15 @@ void read_events(const Table& root, CaseSpec& spec, Names& names);
 void read_probes(const Table& root, CaseSpec& spec, Names& names);
 void read_grids(const Table& root, CaseSpec& spec, Names& names);
 
+// [coupling] and its [[coupling.regions]] (case_parser_coupling.cpp): runs after
+// levels and the domain are read; resolves an automatic coupling interval.
+// More than one [[levels]] entry without [coupling] is refused by the levels reader.
+void read_coupling(const Table& root, CaseSpec& spec, const Names& names);
+
+// min and max of a box at t's keys "min" and "max": both required, min < max in
+// every axis; `what` names the box in messages ("the grid box").
+void read_box(const Table& t, Vec3& lo, Vec3& hi, const std::string& what);
+
 // Refuses a box [lo, hi] that reaches outside the domain: below it at t's key
 // k_lo, above it at k_hi (the same key for a region or a point).
 void check_inside_domain(const Table& t, std::string_view k_lo, std::string_view k_hi, const Vec3& lo, const Vec3& hi,

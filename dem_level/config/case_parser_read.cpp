@@ -271,7 +271,7 @@ std::vector<Table> array_of_tables(const Table& root, std::string_view k) {
   if (!n) return out;
   const toml::array* a = n->as_array();
   if (!a)
-    root.fail(k, std::string("expected an array of tables ([[") + std::string(k) + "]]), found " + type_name(*n));
+    root.fail(k, std::string("expected an array of tables ([[") + root.key(k) + "]]), found " + type_name(*n));
   for (size_t i = 0; i < a->size(); ++i) {
     const toml::node& e = *a->get(i);
     const std::string path = root.key(k) + "[" + std::to_string(i) + "]";

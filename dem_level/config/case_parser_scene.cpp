@@ -21,16 +21,6 @@ Vec3 direction(const Table& t, std::string_view k, const Vec3& def) {
   return normalized(v);
 }
 
-// min and max of a box: both required, min < max in every axis.
-void read_box(const Table& t, Vec3& lo, Vec3& hi, const std::string& what) {
-  lo = t.required_vec3("min", "the lower corner of " + what + " (m)");
-  hi = t.required_vec3("max", "the upper corner of " + what + " (m)");
-  for (int a = 0; a < 3; ++a)
-    t.check("max", hi[a] > lo[a],
-            std::string("max.") + kAxis[a] + " = " + num(hi[a]) + " is not above min." + kAxis[a] + " = " +
-                num(lo[a]) + "; " + what + " needs min < max in every axis");
-}
-
 // bottom < top along a wall's axis.
 void read_extent(const Table& t, WallSpec& w) {
   w.bottom = t.required_number("bottom", "the lower end along the axis, measured from center (m)");
@@ -46,6 +36,15 @@ void read_rims(const Table& t, WallSpec& w) {
 }
 
 }  // namespace
+
+void read_box(const Table& t, Vec3& lo, Vec3& hi, const std::string& what) {
+  lo = t.required_vec3("min", "the lower corner of " + what + " (m)");
+  hi = t.required_vec3("max", "the upper corner of " + what + " (m)");
+  for (int a = 0; a < 3; ++a)
+    t.check("max", hi[a] > lo[a],
+            std::string("max.") + kAxis[a] + " = " + num(hi[a]) + " is not above min." + kAxis[a] + " = " +
+                num(lo[a]) + "; " + what + " needs min < max in every axis");
+}
 
 void check_inside_domain(const Table& t, std::string_view k_lo, std::string_view k_hi, const Vec3& lo, const Vec3& hi,
                          const DomainSpec& d) {

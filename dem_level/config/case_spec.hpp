@@ -189,6 +189,39 @@ struct InitialSpec {               // [initial] start from particles saved in a 
   SourceLoc loc;
 };
 
+// Multi-level coupling (paper section 2.3; DESIGN.md section 3). Present only in
+// hierarchy cases; a single-level case has none and starts no coupler.
+struct CouplingRegionSpec {        // [[coupling.regions]] one fine region inside a coarser level
+  std::string coarse, fine;        // coarse = "name", fine = "name": [[levels]] names, alpha(coarse) > alpha(fine)
+  Vec3 min, max;                   // min, max [m]: box of the fine region, rounded outward to whole cells
+  double cell_size = 0.02;         // cell_size [m] > 0: cubic coupling cells (paper: 2 cm)
+  std::optional<Vec3> inside;      // inside: a point inside the geometry; default: centre of the box's top face
+  double insert_depth = 0.0;       // insert_depth [m] >= 0: slab below the boundary surface where fine particles
+                                   //   are inserted; 0 = automatic (4 coarse diameters, at most one cell)
+  double fade = 1.5;               // fade > 0 [fine diameters]: the PI traction fades out over this depth
+  double kp = 0.5;                 // kp >= 0: PI proportional gain [Pa traction per Pa stress error]
+  double ki = 50.0;                // ki >= 0 [1/s]: PI integral gain
+  double traction_limit = 0.0;     // traction_limit [Pa] >= 0: largest |traction|; 0 = automatic
+                                   //   (density x |g| x domain height: a full column of solid)
+  std::string correct = "mass_flow";  // correct: "mass_flow" | "velocity" | "none" (coarse correction cells)
+  double velocity_gain = 50.0;     // velocity_gain > 0 [1/s]: P controller on the coarse cells' mean velocity
+  double acceleration_limit = 0.0; // acceleration_limit [m/s2] >= 0; 0 = automatic (5 |g|)
+  double velocity_only_below = -std::numeric_limits<double>::infinity();
+                                   // velocity_only_below [m]: cells below this height use pure velocity coupling
+  int radius_bins = 8;             // radius_bins >= 1: size-histogram bins of the crossing coarse particles
+  SourceLoc loc;
+};
+
+struct CouplingSpec {              // [coupling]
+  double interval = 0.0;           // interval [s] > 0: coupling interval, every level's dt divides it;
+                                   //   0 = automatic (the smallest multiple of every dt >= 15 finest steps)
+  std::string endpoint;            // endpoint: ZeroMQ endpoint of the coupler; "" = ipc:// in the run folder
+  double heartbeat = 1.0;          // heartbeat [wall s] > 0
+  double timeout = 60.0;           // timeout [wall s] > heartbeat: a level silent this long stops the run
+  std::vector<CouplingRegionSpec> regions;
+  SourceLoc loc;
+};
+
 struct CaseSpec {
   std::string path;                // the case file as given
   std::string dir;                 // its folder (relative files resolve here)
@@ -210,6 +243,7 @@ struct CaseSpec {
   OutputSpec output;
   StabilitySpec stability;
   TimeSpec time;
+  std::optional<CouplingSpec> coupling;  // [coupling]: only in multi-level cases
 };
 
 }  // namespace mlcg::config

@@ -169,7 +169,7 @@ void Level::rebuild() {
   for (int32_t i : order) {
     const Vec3& x = p_.x[static_cast<size_t>(i)];
     if (x.x < dom_lo_.x || x.y < dom_lo_.y || x.z < dom_lo_.z || x.x > dom_hi_.x || x.y > dom_hi_.y ||
-        x.z > dom_hi_.z) {
+        x.z > dom_hi_.z || (coupled_ && coupling_removes(static_cast<size_t>(i)))) {
       gone[0] += 1.0;
       gone[1] += p_.mass[static_cast<size_t>(i)];
       continue;
@@ -203,6 +203,7 @@ void Level::rebuild() {
   wall_hist_ = ContactHistory{};
   history_loaded_ = false;
   for (auto& pr : probes_) pr.refresh(p_, skin_);
+  if (coupled_) coupling_refresh();
   ++rebuilds_;
   rebuild_pending_ = false;
 }
@@ -235,6 +236,7 @@ void Level::guard(const std::string& local_problem, double badness) {
 }
 
 void Level::step_once() {
+  if (coupled_) coupling_begin_step();
   pre_step();
   double sum = 0.0;
   bool rebuild_now = rebuild_pending_;
@@ -258,16 +260,19 @@ void Level::step_once() {
     PhaseTimer t(times_.measure);
     for (auto& pr : probes_) pr.check(p_);
   }
+  if (coupled_) coupling_after_drift();
   if (rebuild_now) {
     PhaseTimer t(times_.neighbor);
     rebuild();
   }
   bool stress = false;
   for (const auto& g : grids_) stress = stress || (step_ + 1) % g.sample_every == 0;
+  if (coupled_) stress = stress || coupling_wants_stress();
   {
     PhaseTimer t(times_.force);
     clear_ghost_forces(p_);
     forces_(fctx_, stress);
+    if (coupled_) coupling_forces();
   }
   const auto& st = fctx_.stats;
   std::string problem;
@@ -287,6 +292,7 @@ void Level::step_once() {
   particle_steps_ += static_cast<uint64_t>(global_particles_);
   max_particles_ = std::max<size_t>(max_particles_, static_cast<size_t>(global_particles_));
   after_step();
+  if (coupled_) coupling_end_step();
 }
 
 MassBalance Level::mass_balance() const {

@@ -6,6 +6,10 @@
 // Step order (velocity Verlet):
 //   events and insertion due at t  ->  first half kick + drift  ->  probes count
 //   crossings  ->  rebuild if needed  ->  forces  ->  second half kick  ->  guards
+// A coupled level (LevelOptions::coupler, level_coupling.cpp) adds: at an interval
+// start the coupler's commands and insertion; face crossings after the drift;
+// controller forces after the contact forces; cell samples and the interval's
+// statistics after the step. Uncoupled, each of these is one untaken branch.
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -39,10 +43,14 @@ struct LevelOptions {
   int64_t max_steps = -1;          // stop (with a checkpoint) after this many steps in this process
   bool quiet = false;              // no progress lines
   bool single_rank = false;        // run on this rank alone even inside an MPI job
+  std::string level;               // the [[levels]] entry to run (name); empty = the first
+  std::string coupler;             // coupler endpoint: register there and run coupled; empty = uncoupled
 };
 
 // Raised when the level stops on a guard: NaN/inf or an excessive overlap.
 struct GuardStop : std::runtime_error { using std::runtime_error::runtime_error; };
+// Raised when a coupled level cannot go on: the coupler fell silent, refused or sent unusable commands.
+struct CouplingStop : std::runtime_error { using std::runtime_error::runtime_error; };
 
 // Wall seconds spent per phase of the step loop (for benchmarks and reports).
 struct PhaseTimes {
@@ -102,6 +110,7 @@ class Level {
   // Collective: the state of every rank, gathered and written by rank 0.
   void write_checkpoint(const std::filesystem::path& path) const;
   void interrupt() { interrupted_ = true; }
+  bool coupled() const { return coupled_ != nullptr; }
 
  private:
   struct EventState {
@@ -143,6 +152,20 @@ class Level {
   void progress(bool force);
   std::string describe_particle(size_t i) const;
   void resolve_end_time();
+
+  // Multi-level coupling (level_coupling.cpp); each hook runs only when coupled_.
+  struct Coupled;
+  struct CoupledDeleter { void operator()(Coupled* c) const; };  // Coupled is complete only in level_coupling.cpp
+  void connect_coupler();               // collective: register, welcome, grids
+  void coupling_begin_step();           // at an interval start: commands, insertion, controller weights
+  void coupling_after_drift();          // face crossings
+  bool coupling_wants_stress() const;   // this step's forces feed a cell sample
+  void coupling_forces();               // controller forces
+  void coupling_end_step();             // cell samples; at an interval end the statistics
+  bool coupling_removes(size_t i);      // rebuild: particle i left a fine region (counted)
+  void coupling_refresh();              // rebuild: crossing candidates
+  bool coupling_finished() const;       // the coupler said stop and the last interval is done
+  void coupling_bye(RunStatus status, const std::string& reason);
 
   config::CaseSpec cs_;
   LevelOptions opt_;
@@ -203,6 +226,7 @@ class Level {
   PhaseTimes times_;
   double wall_start_ = 0.0, last_progress_ = -1e300, last_progress_t_ = 0.0;
   double wall_seconds_before_ = 0.0;  // from earlier processes of a restarted run
+  std::unique_ptr<Coupled, CoupledDeleter> coupled_;  // null unless LevelOptions::coupler is set
 };
 
 // Installs SIGINT/SIGTERM handlers that ask every running level to stop cleanly.

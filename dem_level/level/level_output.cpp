@@ -57,6 +57,7 @@ RunStatus Level::run() {
         status = RunStatus::StepLimit;
         break;
       }
+      if (coupled_ && coupling_finished()) break;
       step_once();
       progress(false);
     }
@@ -68,7 +69,12 @@ RunStatus Level::run() {
       write_checkpoint(opt_.out_dir / "checkpoint_failed.h5");
       log_->error("state at the stop written to {}", (opt_.out_dir / "checkpoint_failed.h5").string());
     }
+  } catch (const CouplingStop& e) {  // the last checkpoint stays
+    status = RunStatus::Failed;
+    reason = e.what();
+    log_->error("STOPPED: {}", reason);
   }
+  if (coupled_) coupling_bye(status, reason);
   if (status == RunStatus::Completed)
     for (auto& in : ins_) in.abandon_pending();
 

@@ -14,51 +14,13 @@
 #include "io/h5.hpp"
 #include "io/snapshot_series.hpp"
 #include "level/level.hpp"
-#include "walls/stl_reader.hpp"
+#include "scene/walls_from_case.hpp"
 
 namespace mlcg {
 
 namespace {
 
 Vec3 unit(const Vec3& a) { return a / norm(a); }
-
-AnalyticWall make_analytic(const config::WallSpec& w) {
-  AnalyticWall a;
-  if (w.type == config::WallType::Plane) {
-    a.kind = AnalyticWall::Kind::Plane;
-    a.plane = {w.point, unit(w.normal)};
-    return a;
-  }
-  a.kind = AnalyticWall::Kind::Revolution;
-  RevolutionWall& r = a.rev;
-  r.c = w.center;
-  r.a = unit(w.axis);
-  switch (w.type) {
-    case config::WallType::Cylinder:
-      r.rho0 = r.rho1 = w.radius;
-      r.s0 = w.bottom;
-      r.s1 = w.top;
-      r.rim0 = w.rim_bottom;
-      r.rim1 = w.rim_top;
-      break;
-    case config::WallType::Cone:
-      r.rho0 = w.radius_bottom;
-      r.rho1 = w.radius_top;
-      r.s0 = w.bottom;
-      r.s1 = w.top;
-      r.rim0 = w.rim_bottom;
-      r.rim1 = w.rim_top;
-      break;
-    default:  // disk: the segment from the axis to the rim, in the plane through center
-      r.rho0 = 0.0;
-      r.rho1 = w.radius;
-      r.s0 = r.s1 = 0.0;
-      r.rim0 = false;
-      r.rim1 = true;
-      break;
-  }
-  return a;
-}
 
 }  // namespace
 
@@ -98,6 +60,17 @@ void Level::setup() {
   if (comm_.rank() != 0) log_->set_level(spdlog::level::err);
 
   lvl_ = cs_.levels.front();
+  if (!opt_.level.empty()) {
+    const auto it = std::find_if(cs_.levels.begin(), cs_.levels.end(),
+                                 [&](const config::LevelSpec& l) { return l.name == opt_.level; });
+    if (it == cs_.levels.end()) {
+      std::vector<std::string> names;
+      for (const auto& l : cs_.levels) names.push_back("'" + l.name + "'");
+      throw std::runtime_error(fmt::format("{}: no [[levels]] entry is named '{}'; the case has {}", cs_.path,
+                                           opt_.level, fmt::join(names, ", ")));
+    }
+    lvl_ = *it;
+  }
   if (lvl_.dt_alpha1 > 0.0) lvl_.dt = lvl_.dt_alpha1 * lvl_.alpha;
   dt_ = lvl_.dt;
   alpha_ = lvl_.alpha;
@@ -138,6 +111,10 @@ void Level::setup() {
 
   setup_walls();
   setup_insertions();
+  // In a hierarchy the case's particles fill the coarsest level only; finer
+  // levels get theirs from the coupler (their kinds still set the guards).
+  bool fills_scene = true;
+  for (const auto& l : cs_.levels) fills_scene = fills_scene && (!cs_.coupling || l.alpha <= alpha_);
   std::vector<ParticleKind> explicit_kinds;
   for (const auto& ps : cs_.particles) {
     ParticleInit pi;
@@ -149,11 +126,12 @@ void Level::setup() {
     pi.v = ps.velocity;
     pi.omega = ps.omega;
     explicit_kinds.push_back({pi.material, pi.radius, pi.radius, norm(pi.v)});
+    if (!fills_scene) continue;
     ++explicit_count_;
     explicit_mass_ += pi.density * 4.0 / 3.0 * std::numbers::pi * pi.radius * pi.radius * pi.radius;
     if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
-  if (cs_.initial) load_initial_state(explicit_kinds, opt_.restart.empty());
+  if (cs_.initial) load_initial_state(explicit_kinds, fills_scene && opt_.restart.empty());
 
   // Stability guard, over every kind of particle this level will hold.
   std::vector<ParticleKind> kinds;
@@ -182,6 +160,8 @@ void Level::setup() {
   stab_ = check_stability(cs_, lvl_, mt_, kinds, wall_mats, height);
   for (const auto& l : stab_.lines) log_->info("{}", l);
 
+  if (!fills_scene) ins_.clear();
+
   skin_ = lvl_.skin > 0.0 ? lvl_.skin : 0.5 * r_max;
   nl_.set_skin(skin_);
   r_max_ = r_max;
@@ -200,26 +180,15 @@ void Level::setup() {
   if (!opt_.restart.empty()) load_checkpoint(opt_.restart);
   if (!opt_.out_dir.empty() && comm_.rank() == 0)
     snaps_ = std::make_unique<io::SnapshotSeries>(opt_.out_dir, "particles", !opt_.restart.empty());
+  if (!opt_.coupler.empty()) connect_coupler();
 }
 
 void Level::setup_walls() {
-  // Analytic walls first: WallSet keeps their primitive ids below the meshes'.
-  for (const auto& w : cs_.walls) {
-    if (w.type == config::WallType::Mesh) continue;
-    walls_.add_analytic(w.name, mt_.index_of(w.material), make_analytic(w));
-  }
-  for (const auto& w : cs_.walls) {
-    if (w.type != config::WallType::Mesh) continue;
-    const std::filesystem::path file = std::filesystem::path(cs_.dir) / w.file;
-    auto tris = read_stl(file.string());
-    for (auto& t : tris) {
-      t.a = t.a * w.scale + w.offset;
-      t.b = t.b * w.scale + w.offset;
-      t.c = t.c * w.scale + w.offset;
-    }
-    auto mesh = std::make_shared<const TriangleMesh>(tris, file.string());
-    log_->info("wall '{}': {} triangles from {}", w.name, mesh->triangles(), file.string());
-    walls_.add_mesh(w.name, mt_.index_of(w.material), std::move(mesh));
+  walls_ = walls_from_case(cs_, mt_);
+  for (size_t w = 0; w < walls_.walls(); ++w) {
+    const auto& in = walls_.info(w);
+    if (in.is_mesh)
+      log_->info("wall '{}': {} triangles from {}", in.name, walls_.mesh(in.mesh).triangles(), walls_.mesh(in.mesh).name());
   }
 }
 
@@ -306,7 +275,7 @@ void Level::setup_measurements() {
     q.nx = std::max(1, static_cast<int>(std::ceil((s.max.x - s.min.x) / s.cell_size - 1e-9)));
     q.ny = std::max(1, static_cast<int>(std::ceil((s.max.y - s.min.y) / s.cell_size - 1e-9)));
     q.nz = std::max(1, static_cast<int>(std::ceil((s.max.z - s.min.z) / s.cell_size - 1e-9)));
-    GridRun g{CellGrid(q), 1, s.output_interval, s.output_interval, 0, nullptr};
+    GridRun g{CellGrid(q), 1, s.output_interval, s.output_interval, 0, nullptr, {}, {}};
     const double si = s.sample_interval > 0.0 ? s.sample_interval : s.output_interval;
     g.sample_every = std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(si / dt_)));
     if (!opt_.out_dir.empty() && comm_.rank() == 0)

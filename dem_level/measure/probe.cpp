@@ -8,33 +8,18 @@
 namespace mlcg {
 
 void MassFlowProbe::refresh(const Particles& p, double band) {
-  cand_.clear();
-  side_.clear();
   const double lateral = prm_.radius + band;
-  for (size_t i = 0; i < p.n_local(); ++i) {
-    const Vec3 d = p.x[i] - prm_.point;
-    const double s = dot(d, prm_.normal);
-    if (std::fabs(s) > band) continue;
-    if (norm2(d - s * prm_.normal) > lateral * lateral) continue;
-    cand_.push_back(static_cast<int32_t>(i));
-    side_.push_back(s);
-  }
+  plane_.refresh(p, band, [&](const Vec3& x, double s) {
+    return norm2(x - prm_.point - s * prm_.normal) <= lateral * lateral;
+  });
 }
 
 void MassFlowProbe::check(const Particles& p) {
   const double r2 = prm_.radius * prm_.radius;
-  for (size_t c = 0; c < cand_.size(); ++c) {
-    const auto i = static_cast<size_t>(cand_[c]);
-    const Vec3 d = p.x[i] - prm_.point;
-    const double s = dot(d, prm_.normal);
-    const double before = side_[c];
-    side_[c] = s;
-    const bool forward = before <= 0.0 && s > 0.0;
-    const bool backward = before > 0.0 && s <= 0.0;
-    if (!forward && !backward) continue;
-    if (norm2(d - s * prm_.normal) > r2) continue;
+  plane_.check(p, [&](size_t i, bool forward, double s, const Vec3&) {
+    if (norm2(p.x[i] - prm_.point - s * prm_.normal) > r2) return;
     st_.mass += forward ? p.mass[i] : -p.mass[i];
-  }
+  });
 }
 
 bool MassFlowProbe::sample_due(double t) const {

@@ -3,15 +3,14 @@
 // normal's direction counts positive, against it negative; the net mass per
 // sampling interval divided by the interval's length is one sample [kg/s].
 //
-// Only particles near the plane can cross it before the next neighbour-list
-// rebuild (no particle moves more than skin/2 between rebuilds), so the probe
-// keeps a short candidate list, refreshed at every rebuild, and checks only
-// those each step.
+// The crossings are counted by PlaneCrossings (a short candidate list near the
+// plane, refreshed at every rebuild).
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "core/particles.hpp"
+#include "measure/plane_crossings.hpp"
 
 namespace mlcg {
 
@@ -37,7 +36,7 @@ class MassFlowProbe {
     double total_mass = 0.0;       // net mass of the closed samples (global)
   };
 
-  explicit MassFlowProbe(ProbeParams prm) : prm_(std::move(prm)) {}
+  explicit MassFlowProbe(ProbeParams prm) : prm_(std::move(prm)), plane_(prm_.point, prm_.normal) {}
 
   // After a rebuild: remember which side of the plane each nearby particle is on.
   void refresh(const Particles& p, double band);
@@ -65,8 +64,7 @@ class MassFlowProbe {
  private:
   ProbeParams prm_;
   State st_;
-  std::vector<int32_t> cand_;
-  std::vector<double> side_;
+  PlaneCrossings plane_;
 };
 
 }  // namespace mlcg

@@ -81,6 +81,21 @@ bool segment_hits_triangle(const Vec3& a, const Vec3& b, const Vec3& p0, const V
 
 }  // namespace
 
+bool WallSet::touches(const Vec3& x, double r) const {
+  WallGeom g;
+  for (int32_t k = 0; k < analytic_count(); ++k) {
+    if (!info_[static_cast<size_t>(analytic_wall_[static_cast<size_t>(k)])].active) continue;
+    if (analytic_[static_cast<size_t>(k)].closest(x, g) && g.dist < r) return true;
+  }
+  std::vector<int32_t> tris;
+  for (const auto& in : info_) {
+    if (!in.is_mesh || !in.active) continue;
+    meshes_[static_cast<size_t>(in.mesh)]->query(x, r, tris);
+    if (!tris.empty()) return true;
+  }
+  return false;
+}
+
 bool WallSet::crosses(const Vec3& a, const Vec3& b) const {
   const double len = std::sqrt(norm2(b - a));
   for (int32_t k = 0; k < analytic_count(); ++k) {

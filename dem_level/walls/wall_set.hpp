@@ -59,6 +59,8 @@ class WallSet {
   // poured from above can only reach places its vertical line from the ceiling
   // reaches without crossing a wall).
   bool crosses(const Vec3& a, const Vec3& b) const;
+  // True if the sphere (x, r) overlaps an active wall (behind a plane counts as overlapping).
+  bool touches(const Vec3& x, double r) const;
 
   void build_candidates(const Particles& p, double skin, bool with_history);
   void save_history(const Particles& p, ContactHistory& out) const;

@@ -1,0 +1,64 @@
+#pragma once
+// The two controllers of the MLCG coupling (paper section 2.3), one instance per
+// coupling cell. Both are plain value types updated once per coupling interval.
+#include <algorithm>
+#include <cmath>
+
+#include "core/vec3.hpp"
+
+namespace mlcg::coupling {
+
+// Discrete PI controller on a transition cell's normal stress along the
+// boundary normal. Output: traction [Pa] pressed on the fine particles at the
+// boundary surface, in [0, limit] (granular matter takes no tension, so the
+// boundary only pushes). Anti-windup by conditional integration: the integral
+// does not grow while the output is saturated in the error's direction.
+struct PiController {
+  double kp = 0.5, ki = 50.0, limit = 1e4;
+  double integral = 0.0;  // Pa s
+  double output = 0.0;    // Pa
+
+  double update(double setpoint, double measured, double dt) {
+    const double e = setpoint - measured;
+    const double trial = integral + e * dt;
+    const double u = kp * e + ki * trial;
+    if (u > limit) {
+      output = limit;
+      if (e < 0.0) integral = trial;
+    } else if (u < 0.0) {
+      output = 0.0;
+      if (e > 0.0) integral = trial;
+    } else {
+      output = u;
+      integral = trial;
+    }
+    return output;
+  }
+  // An empty cell (no coarse setpoint or no fine particles to push) holds nothing.
+  void hold() { integral = 0.0; output = 0.0; }
+};
+
+// Proportional controller pushing a coarse correction cell's mean velocity
+// toward the target from the fine level. Output: an acceleration [m/s^2] the
+// coarse level applies to every particle in the cell, |a| <= limit.
+struct VelocityController {
+  double gain = 50.0;   // 1/s
+  double limit = 49.05; // m/s^2
+
+  Vec3 update(const Vec3& target, const Vec3& coarse) const {
+    Vec3 a = gain * (target - coarse);
+    const double n = norm(a);
+    if (n > limit) a = a * (limit / n);
+    return a;
+  }
+};
+
+// Target velocity of a coarse correction cell: the fine Favre velocity, or,
+// where the mass flow is corrected, that velocity times phi_fine / phi_coarse
+// so that the coarse level carries the fine level's mass flux.
+inline Vec3 correction_target(const Vec3& v_fine, double phi_fine, double phi_coarse, bool mass_flow) {
+  if (!mass_flow || phi_coarse <= 0.0) return v_fine;
+  return v_fine * (phi_fine / phi_coarse);
+}
+
+}  // namespace mlcg::coupling

@@ -1,0 +1,89 @@
+#pragma once
+// The coupler's interval logic, without sockets: given every level's
+// statistics of interval k it computes every level's commands for interval
+// k + 1 (DESIGN.md section 3). Deterministic: the result depends on the inputs
+// and the seed only, never on the order in which levels reported.
+//
+// Per region (a coarse level over a fine one):
+//   coarse face crossings  -> InsertionPlanner -> fine insertion list
+//   coarse / fine sigma_zz -> PI per transition cell -> fine traction, speed limit
+//   fine / coarse velocity -> P per correction cell -> coarse acceleration
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bus/coupling_grid.hpp"
+#include "controllers.hpp"
+#include "insertion_planner.hpp"
+#include "mlcg/bus.pb.h"
+
+namespace mlcg::coupling {
+
+struct LevelConfig {
+  std::string name;
+  double alpha = 1.0, dt = 0.0;
+  uint32_t ranks = 1;
+};
+
+struct RegionConfig {
+  bus::CouplingGrid grid;           // coarse_level / fine_level index LevelConfig entries
+  PlannerParams planner;
+  PiController pi;                  // gains and limit; one copy per transition cell
+  VelocityController velocity;
+  enum class Correct { None, Velocity, MassFlow } correct = Correct::MassFlow;
+  double velocity_only_below = -1e300;
+  double phi_min = 0.05;            // a cell with less solid is treated as empty
+};
+
+struct CouplerConfig {
+  std::vector<LevelConfig> levels;
+  std::vector<RegionConfig> regions;
+  double interval = 0.0;            // coupling interval [s]
+  uint64_t seed = 1;
+  double heartbeat = 1.0, timeout = 60.0;
+};
+
+// One region's controller and insertion state after an interval, for logs.
+struct RegionLog {
+  std::vector<double> setpoint, measured, traction;  // per transition cell (sigma_zz, Pa)
+  std::vector<Vec3> acceleration;                    // per active cell (zero where not corrected)
+  size_t inserted = 0;                               // particles in this interval's list
+  double inserted_mass = 0.0;
+};
+
+class Coupler {
+ public:
+  // Throws std::invalid_argument naming the inconsistency (grids, levels, intervals).
+  Coupler(CouplerConfig cfg, FitsGeometry fits);
+
+  const CouplerConfig& config() const { return cfg_; }
+  int level_index(const std::string& name) const;  // -1 if unknown
+  bus::Welcome welcome(size_t level, uint64_t start_interval) const;
+  // Commands for interval 0: nothing to insert, no forces.
+  std::vector<bus::IntervalCommands> initial_commands() const;
+  // stats[l] = level l's statistics of interval k. Throws std::invalid_argument
+  // naming the level and field when a message does not fit the grids.
+  std::vector<bus::IntervalCommands> advance(uint64_t k, const std::vector<bus::IntervalStats>& stats);
+
+  const bus::CouplingGeometry& geometry(size_t r) const { return regions_[r]->geo; }
+  const InsertionPlanner& planner(size_t r) const { return regions_[r]->planner; }
+  const RegionLog& log(size_t r) const { return regions_[r]->log; }
+
+ private:
+  struct Region {
+    Region(const RegionConfig& c, const FitsGeometry& fits);
+    RegionConfig cfg;
+    bus::CouplingGeometry geo;
+    InsertionPlanner planner;
+    std::vector<PiController> pi;  // per transition cell (face order)
+    RegionLog log;
+  };
+  const bus::GridStats& grid_stats(const bus::IntervalStats& s, size_t region, size_t level) const;
+  void check(const bus::GridStats& g, const Region& r, bool coarse, size_t level) const;
+
+  CouplerConfig cfg_;
+  std::vector<std::unique_ptr<Region>> regions_;
+};
+
+}  // namespace mlcg::coupling

@@ -1,0 +1,159 @@
+#include "insertion_planner.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace mlcg::coupling {
+namespace {
+
+uint64_t mix(uint64_t x) {  // splitmix64 finaliser
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// Uniform hash grid over spheres for the SSI overlap test.
+class SphereHash {
+ public:
+  explicit SphereHash(double cell) : inv_(1.0 / cell) {}
+  void add(const Sphere& s) {
+    idx_[key(s.x)].push_back(spheres_.size());
+    spheres_.push_back(s);
+    r_max_ = std::max(r_max_, s.r);
+  }
+  bool overlaps(const Vec3& x, double r) const {
+    const double reach = r + r_max_;
+    const int64_t n = static_cast<int64_t>(std::ceil(reach * inv_));
+    const auto c = cell(x);
+    for (int64_t i = -n; i <= n; ++i)
+      for (int64_t j = -n; j <= n; ++j)
+        for (int64_t k = -n; k <= n; ++k) {
+          const auto it = idx_.find(pack(c[0] + i, c[1] + j, c[2] + k));
+          if (it == idx_.end()) continue;
+          for (size_t s : it->second) {
+            const double d = spheres_[s].r + r;
+            if (norm2(spheres_[s].x - x) < d * d) return true;
+          }
+        }
+    return false;
+  }
+
+ private:
+  std::array<int64_t, 3> cell(const Vec3& x) const {
+    return {static_cast<int64_t>(std::floor(x.x * inv_)), static_cast<int64_t>(std::floor(x.y * inv_)),
+            static_cast<int64_t>(std::floor(x.z * inv_))};
+  }
+  static uint64_t pack(int64_t i, int64_t j, int64_t k) {
+    return (static_cast<uint64_t>(i & 0x1fffff) << 42) | (static_cast<uint64_t>(j & 0x1fffff) << 21) |
+           static_cast<uint64_t>(k & 0x1fffff);
+  }
+  uint64_t key(const Vec3& x) const {
+    const auto c = cell(x);
+    return pack(c[0], c[1], c[2]);
+  }
+  double inv_;
+  double r_max_ = 0.0;
+  std::vector<Sphere> spheres_;
+  std::unordered_map<uint64_t, std::vector<size_t>> idx_;
+};
+
+}  // namespace
+
+InsertionPlanner::InsertionPlanner(const bus::CouplingGeometry& geo, PlannerParams prm, FitsGeometry fits)
+    : geo_(geo), prm_(std::move(prm)), fits_(std::move(fits)), faces_(geo.faces()) {
+  if (prm_.radius_bins.size() < 2) throw std::invalid_argument("insertion planner: need at least one radius bin");
+  if (!(prm_.ratio > 1.0)) throw std::invalid_argument("insertion planner: coarse-grain ratio must exceed 1");
+  for (auto& f : faces_) f.histogram.assign(prm_.radius_bins.size() - 1, 0);
+}
+
+double InsertionPlanner::mass_of(double r) const {
+  return prm_.density * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+}
+
+void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std::vector<double>& momentum,
+                                     const std::vector<double>& moment, const std::vector<int64_t>& histogram) {
+  const size_t nf = faces_.size(), nb = prm_.radius_bins.size() - 1;
+  if (mass.size() != nf || momentum.size() != 3 * nf || moment.size() != 3 * nf || histogram.size() != nb * nf)
+    throw std::invalid_argument("insertion planner: face statistics do not match the grid's " +
+                                std::to_string(nf) + " faces and " + std::to_string(nb) + " radius bins");
+  for (size_t f = 0; f < nf; ++f) {
+    FaceState& s = faces_[f];
+    s.crossed += mass[f];
+    s.remainder = s.crossed - s.inserted;
+    for (size_t b = 0; b < nb; ++b) s.histogram[b] += histogram[f * nb + b];
+    if (mass[f] > 0.0) {
+      // Favre averages of the net crossing; a net crossing is mostly one-way.
+      s.velocity = Vec3{momentum[3 * f], momentum[3 * f + 1], momentum[3 * f + 2]} / mass[f];
+      const Vec3 a = Vec3{moment[3 * f], moment[3 * f + 1], moment[3 * f + 2]} / mass[f];
+      if (geo_.face_column(a) == static_cast<int>(f)) {
+        s.anchor = a;
+        s.seen = true;
+      }
+    }
+  }
+}
+
+template <class Rng>
+double InsertionPlanner::draw_radius(const FaceState& f, Rng& rng) const {
+  const auto& e = prm_.radius_bins;
+  int64_t total = 0;
+  for (int64_t c : f.histogram) total += std::max<int64_t>(c, 0);
+  size_t bin = 0;
+  if (total > 0) {
+    int64_t pick = static_cast<int64_t>(rng() % static_cast<uint64_t>(total));
+    for (bin = 0; bin + 1 < f.histogram.size(); ++bin) {
+      pick -= std::max<int64_t>(f.histogram[bin], 0);
+      if (pick < 0) break;
+    }
+  } else {
+    bin = static_cast<size_t>(rng() % f.histogram.size());
+  }
+  const double u = std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+  return (e[bin] + u * (e[bin + 1] - e[bin])) / prm_.ratio;
+}
+
+std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<Sphere>& occupants) {
+  std::vector<Insert> out;
+  const double r_max = prm_.radius_bins.back() / prm_.ratio;
+  SphereHash hash(2.0 * r_max);
+  for (const auto& s : occupants) hash.add(s);
+  const double h = geo_.cell_size(), top = geo_.top();
+  for (size_t f = 0; f < faces_.size(); ++f) {
+    FaceState& s = faces_[f];
+    if (!s.seen) continue;
+    std::mt19937_64 rng(mix(prm_.seed ^ mix(interval * 0x100000001b3ULL + f)));
+    const Vec3 lo = geo_.cell_lo(geo_.cell_of_face(f));
+    for (;;) {
+      if (s.next_radius <= 0.0) s.next_radius = draw_radius(s, rng);
+      const double r = s.next_radius, m = mass_of(r);
+      if (s.remainder < m) break;
+      const double zlo = top - prm_.insert_depth + r, zhi = top - r;
+      if (zhi < zlo) throw std::runtime_error("insertion planner: insert_depth is smaller than a fine diameter");
+      std::uniform_real_distribution<double> ux(lo.x, lo.x + h), uy(lo.y, lo.y + h), uz(zlo, zhi);
+      bool placed = false;
+      for (int a = 0; a < prm_.attempts && !placed; ++a) {
+        const Vec3 x{ux(rng), uy(rng), uz(rng)};
+        if (hash.overlaps(x, r) || !fits_(s.anchor, x, r)) continue;
+        hash.add({x, r});
+        out.push_back({x, r, s.velocity});
+        s.inserted += m;
+        s.remainder = s.crossed - s.inserted;
+        ++s.placed;
+        s.next_radius = 0.0;
+        placed = true;
+      }
+      if (!placed) {
+        ++s.short_intervals;
+        break;
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace mlcg::coupling

@@ -1,0 +1,80 @@
+#pragma once
+// Coarse -> fine insertion for one coupling region (paper section 2.3).
+//
+// Per boundary face the planner keeps the coarse mass that crossed it and has
+// not yet been inserted as fine particles (the remainder). Each interval it
+// adds the coarse level's net crossing, then places fine particles while the
+// remainder covers the next particle's mass: radius = a coarse radius drawn
+// from the face's size histogram, divided by the coarse-grain ratio; position
+// by simple sequential inhibition (SSI) in the slab just below the face, free
+// of overlap with the fine particles already there, with each other, and with
+// the walls; velocity = the face's Favre (mass-weighted) velocity. A face
+// whose slab has no room keeps its remainder for the next interval, so
+//   coarse mass crossed = fine mass inserted + remainder   (exactly, per face).
+// Every random draw comes from a generator seeded by (seed, face, interval):
+// the plan depends on the inputs and the seed only.
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "bus/coupling_grid.hpp"
+#include "core/vec3.hpp"
+
+namespace mlcg::coupling {
+
+struct Sphere { Vec3 x; double r; };
+struct Insert { Vec3 x; double r; Vec3 v; };
+
+struct PlannerParams {
+  double ratio = 2.0;              // alpha_coarse / alpha_fine
+  double density = 1000.0;         // of the inserted particles [kg/m^3]
+  double insert_depth = 0.01;      // slab depth below the boundary surface [m]
+  std::vector<double> radius_bins; // coarse radius bin edges (size bins + 1; equal edges = one radius)
+  int attempts = 300;              // SSI candidates per particle before the face gives up this interval
+  uint64_t seed = 1;
+};
+
+struct FaceState {
+  double crossed = 0.0;      // total net coarse mass crossed [kg]
+  double inserted = 0.0;     // total fine mass inserted [kg]
+  double remainder = 0.0;    // crossed - inserted, recomputed so the identity holds to one rounding
+  uint64_t placed = 0;
+  Vec3 velocity;             // Favre velocity of the latest interval with a crossing
+  Vec3 anchor;               // mass-weighted crossing point: known to lie inside the geometry
+  bool seen = false;         // any coarse mass crossed yet
+  std::vector<int64_t> histogram;  // net crossing counts per bin, all intervals so far
+  double next_radius = 0.0;  // drawn, not yet placed; 0 = draw one
+  uint64_t short_intervals = 0;  // intervals that ended with room lacking for the next particle
+};
+
+// Accepts a sphere centre x, radius r, given a point `anchor` known to be
+// inside the geometry: false if the sphere touches a wall or x is not reachable
+// from the anchor without crossing one.
+using FitsGeometry = std::function<bool(const Vec3& anchor, const Vec3& x, double r)>;
+
+class InsertionPlanner {
+ public:
+  InsertionPlanner(const bus::CouplingGeometry& geo, PlannerParams prm, FitsGeometry fits);
+
+  // Adds one interval of the coarse level's face statistics (GridStats fields
+  // face_mass, face_momentum, face_moment, face_histogram).
+  void add_crossings(const std::vector<double>& mass, const std::vector<double>& momentum,
+                     const std::vector<double>& moment, const std::vector<int64_t>& histogram);
+  // Places what the remainders cover, given the fine particles in the slabs.
+  std::vector<Insert> plan(uint64_t interval, const std::vector<Sphere>& occupants);
+
+  const std::vector<FaceState>& faces() const { return faces_; }
+  std::vector<FaceState>& faces_mut() { return faces_; }
+  double mass_of(double r) const;
+  int face_of(const Vec3& x) const { return geo_.face_column(x); }
+
+ private:
+  template <class Rng> double draw_radius(const FaceState& f, Rng& rng) const;
+
+  const bus::CouplingGeometry& geo_;
+  PlannerParams prm_;
+  FitsGeometry fits_;
+  std::vector<FaceState> faces_;
+};
+
+}  // namespace mlcg::coupling

@@ -1,0 +1,60 @@
+// coupler_service: the central coupler of a multi-level case. Started by
+// `mlcg run` before the levels; binds one endpoint, registers every level of
+// the case and runs the coupling intervals until they finish.
+#include <csignal>
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "bus/case_hash.hpp"
+#include "config/case_parser.hpp"
+#include "from_case.hpp"
+#include "service.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"coupler_service: the MLCG coupler of a multi-level case"};
+  std::string case_file, out_dir, endpoint;
+  uint64_t max_intervals = UINT64_MAX;
+  bool quiet = false;
+  app.add_option("case", case_file, "case file (TOML) with a [coupling] section")->required();
+  app.add_option("--out", out_dir, "run folder (logs go to <out>/coupling and <out>/coupler.log)")->required();
+  app.add_option("--endpoint", endpoint, "ZeroMQ endpoint to bind (default: the case's, else ipc://<out>/bus.ipc)");
+  app.add_option("--max-intervals", max_intervals, "stop the levels after this many coupling intervals");
+  app.add_flag("--quiet", quiet, "log to the file only");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    std::filesystem::create_directories(out_dir);
+    std::vector<spdlog::sink_ptr> sinks{
+        std::make_shared<spdlog::sinks::basic_file_sink_mt>((std::filesystem::path(out_dir) / "coupler.log").string())};
+    if (!quiet) sinks.push_back(std::make_shared<spdlog::sinks::stderr_color_sink_mt>());
+    auto log = std::make_shared<spdlog::logger>("coupler", sinks.begin(), sinks.end());
+    log->flush_on(spdlog::level::info);
+
+    const auto cs = mlcg::config::load_case(case_file);
+    auto cc = mlcg::coupling::coupling_from_case(cs);
+    mlcg::coupling::Coupler coupler(cc.cfg, cc.fits);
+    for (size_t r = 0; r < cc.cfg.regions.size(); ++r) {
+      const auto& g = coupler.geometry(r);
+      log->info("region {}: {} x {} x {} cells of {} m, {} inside the geometry, {} boundary faces at z = {} m", r,
+                g.grid().nx(), g.grid().ny(), g.grid().nz(), g.cell_size(), g.cells(), g.faces(), g.top());
+    }
+    if (endpoint.empty()) endpoint = cs.coupling->endpoint;
+    if (endpoint.empty()) endpoint = "ipc://" + (std::filesystem::absolute(out_dir) / "bus.ipc").string();
+    zmq::context_t ctx;
+    mlcg::bus::Channel channel(ctx, mlcg::bus::Channel::Role::Router, endpoint, {});
+    mlcg::coupling::ServiceOptions opt;
+    opt.case_hash = mlcg::bus::case_hash(case_file);
+    opt.out_dir = out_dir;
+    opt.max_intervals = max_intervals;
+    mlcg::coupling::Service service(coupler, channel, opt, log);
+    return service.run();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "coupler_service: error: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,241 @@
+#include "service.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "io/atomic_file.hpp"
+
+namespace mlcg::coupling {
+namespace {
+
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+}  // namespace
+
+Service::Service(Coupler& coupler, bus::Channel& channel, ServiceOptions opt, std::shared_ptr<spdlog::logger> log)
+    : coupler_(coupler), ch_(channel), opt_(std::move(opt)), log_(std::move(log)) {
+  for (const auto& l : coupler_.config().levels) {
+    peers_.emplace_back();
+    peers_.back().identity = l.name;
+  }
+  if (!opt_.out_dir.empty()) {
+    std::filesystem::create_directories(opt_.out_dir / "coupling");
+    for (size_t r = 0; r < coupler_.config().regions.size(); ++r) {
+      csv_.emplace_back(opt_.out_dir / "coupling" / fmt::format("region{}.csv", r));
+      csv_.back() << "interval,time_s,crossed_kg,inserted_kg,remainder_kg,inserted_now,inserted_now_kg,"
+                     "setpoint_mean_pa,measured_mean_pa,traction_mean_pa,traction_max_pa,acceleration_max\n";
+    }
+  }
+}
+
+Service::~Service() = default;
+
+std::string Service::names(const std::function<bool(const Peer&)>& pick) const {
+  std::string out;
+  for (const auto& p : peers_)
+    if (pick(p)) out += (out.empty() ? "'" : ", '") + p.identity + "'";
+  return out;
+}
+
+bool Service::all(bool Peer::*flag) const {
+  for (const auto& p : peers_)
+    if (!(p.*flag)) return false;
+  return true;
+}
+
+void Service::refuse(const std::string& peer, const std::string& why) {
+  ++refused_;
+  log_->warn("refused a message from '{}': {}", peer, why);
+  if (peer.empty()) return;
+  bus::Envelope env;
+  env.mutable_refused()->set_reason(why);
+  try {
+    ch_.send(env, peer);
+  } catch (const std::exception& e) {
+    log_->warn("could not tell '{}': {}", peer, e.what());
+  }
+}
+
+void Service::fail(const std::string& why) {
+  error_ = why;
+  log_->error("{}", why);
+  bus::Envelope env;
+  env.mutable_bye()->set_reason(why);
+  env.mutable_bye()->set_failed(true);
+  for (const auto& p : peers_) {
+    if (!p.registered || p.finished) continue;
+    try {
+      ch_.send(env, p.identity);
+    } catch (const std::exception&) {  // already gone
+    }
+  }
+}
+
+void Service::on_register(const bus::Incoming& in) {
+  const bus::Register& r = in.env.register_level();
+  const int l = coupler_.level_index(r.level_name());
+  if (l < 0 || r.level_name() != in.peer) {
+    return refuse(in.peer, fmt::format("unknown level '{}' (the case has {}; the socket identity must be the level "
+                                       "name)", r.level_name(), names([](const Peer&) { return true; })));
+  }
+  Peer& p = peers_[static_cast<size_t>(l)];
+  const LevelConfig& lc = coupler_.config().levels[static_cast<size_t>(l)];
+  if (p.registered) return refuse(in.peer, fmt::format("level '{}' is already registered", lc.name));
+  if (r.case_hash() != opt_.case_hash)
+    return refuse(in.peer, fmt::format("level '{}' runs another case (hash {}, the coupler's is {})", lc.name,
+                                       r.case_hash(), opt_.case_hash));
+  if (std::fabs(r.alpha() - lc.alpha) > 1e-12 * lc.alpha || std::fabs(r.dt() - lc.dt) > 1e-12 * lc.dt)
+    return refuse(in.peer, fmt::format("level '{}' registers alpha {} dt {} s, the case says alpha {} dt {} s",
+                                       lc.name, r.alpha(), r.dt(), lc.alpha, lc.dt));
+  if (r.start_interval() != k_)
+    return refuse(in.peer, fmt::format("level '{}' starts at interval {}, the coupler is at {}", lc.name,
+                                       r.start_interval(), k_));
+  p.registered = true;
+  p.last_seen = now();
+  bus::Envelope env;
+  *env.mutable_welcome() = coupler_.welcome(static_cast<size_t>(l), k_);
+  ch_.send(env, p.identity);
+  log_->info("level '{}' registered: alpha {}, dt {} s, {} rank(s), binary {}", lc.name, r.alpha(), r.dt(),
+             r.ranks(), r.binary());
+}
+
+void Service::handle(const bus::Incoming& in) {
+  if (!in.ok()) return refuse(in.peer, in.error);
+  const bus::Envelope& env = in.env;
+  if (env.has_register_level()) return on_register(in);
+  const int l = coupler_.level_index(in.peer);
+  if (l < 0 || !peers_[static_cast<size_t>(l)].registered)
+    return refuse(in.peer, fmt::format("'{}' sent {} before registering", in.peer, bus::body_name(env)));
+  Peer& p = peers_[static_cast<size_t>(l)];
+  p.last_seen = now();
+  if (env.has_heartbeat()) return;
+  if (env.has_bye()) {
+    p.finished = true;
+    if (env.bye().failed()) return fail(fmt::format("level '{}' failed: {}", p.identity, env.bye().reason()));
+    log_->info("level '{}' finished at interval {}", p.identity, k_);
+    return;
+  }
+  if (env.has_stats()) {
+    if (p.has_stats || env.stats().interval() != k_)
+      return fail(fmt::format("level '{}' sent statistics of interval {} while the coupler is at {}", p.identity,
+                              env.stats().interval(), k_));
+    p.stats = env.stats();
+    p.has_stats = true;
+    return;
+  }
+  refuse(in.peer, fmt::format("'{}' sent {}, which the coupler does not accept", in.peer, bus::body_name(env)));
+}
+
+void Service::send_commands(std::vector<bus::IntervalCommands> cmds) {
+  const bool last = k_ + 1 >= opt_.max_intervals;
+  for (size_t l = 0; l < peers_.size(); ++l) {
+    if (peers_[l].finished) continue;
+    bus::Envelope env;
+    cmds[l].set_stop(last && cmds[l].interval() > 0);
+    *env.mutable_commands() = std::move(cmds[l]);
+    try {
+      ch_.send(env, peers_[l].identity);
+    } catch (const std::exception& e) {
+      log_->warn("{}", e.what());
+    }
+  }
+}
+
+void Service::write_logs() {
+  const double t = static_cast<double>(k_ + 1) * coupler_.config().interval;
+  for (size_t r = 0; r < csv_.size(); ++r) {
+    const RegionLog& lg = coupler_.log(r);
+    double crossed = 0.0, inserted = 0.0, rem = 0.0, sp = 0.0, pv = 0.0, tr = 0.0, tmax = 0.0, amax = 0.0;
+    for (const auto& f : coupler_.planner(r).faces()) {
+      crossed += f.crossed;
+      inserted += f.inserted;
+      rem += f.remainder;
+    }
+    const size_t nf = lg.traction.size();
+    for (size_t f = 0; f < nf; ++f) {
+      sp += lg.setpoint[f] / nf;
+      pv += lg.measured[f] / nf;
+      tr += lg.traction[f] / nf;
+      tmax = std::max(tmax, lg.traction[f]);
+    }
+    for (const auto& a : lg.acceleration) amax = std::max(amax, norm(a));
+    csv_[r] << fmt::format("{},{:.9g},{:.12g},{:.12g},{:.6g},{},{:.9g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}\n", k_, t,
+                           crossed, inserted, rem, lg.inserted, lg.inserted_mass, sp, pv, tr, tmax, amax);
+  }
+}
+
+int Service::run() {
+  const auto& cfg = coupler_.config();
+  const double t0 = now();
+  const auto poll = std::chrono::milliseconds(std::max<int64_t>(1, static_cast<int64_t>(cfg.heartbeat * 250.0)));
+  log_->info("coupler on {}: {} levels, {} region(s), interval {} s, waiting for registrations", ch_.endpoint(),
+             cfg.levels.size(), cfg.regions.size(), cfg.interval);
+  for (;;) {
+    if (auto in = ch_.receive(poll)) handle(*in);
+    if (!error_.empty()) return 2;
+    const double t = now();
+    if (!started_) {
+      if (all(&Peer::registered)) {
+        started_ = true;
+        for (auto& p : peers_) p.last_seen = t;
+        send_commands(coupler_.initial_commands());
+      } else if (t - t0 > cfg.timeout) {
+        fail(fmt::format("level(s) {} did not register within {} s", names([](const Peer& p) { return !p.registered; }),
+                         cfg.timeout));
+        return 2;
+      }
+      continue;
+    }
+    if (all(&Peer::has_stats)) {
+      std::vector<bus::IntervalStats> stats;
+      for (auto& p : peers_) stats.push_back(std::move(p.stats));
+      try {
+        auto cmds = coupler_.advance(k_, stats);
+        write_logs();
+        ++k_;
+        for (auto& p : peers_) p.has_stats = false;
+        send_commands(std::move(cmds));
+      } catch (const std::exception& e) {
+        fail(e.what());
+        return 2;
+      }
+      continue;
+    }
+    if (all(&Peer::finished)) {
+      log_->info("all levels finished after {} intervals; {} message(s) refused", k_, refused_);
+      for (auto& f : csv_) f.flush();
+      return 0;
+    }
+    // Levels share the end time: if one finished without statistics of k while
+    // another delivered them, interval k can never complete.
+    bool stuck = true, waiting = false, gone = false;
+    for (const auto& p : peers_) {
+      stuck = stuck && (p.finished || p.has_stats);
+      waiting = waiting || (!p.finished && p.has_stats);
+      gone = gone || (p.finished && !p.has_stats);
+    }
+    if (stuck && waiting && gone) {
+      fail(fmt::format("level(s) {} finished before interval {} while {} continue (levels share the end time)",
+                       names([](const Peer& p) { return p.finished && !p.has_stats; }), k_,
+                       names([](const Peer& p) { return !p.finished; })));
+      return 2;
+    }
+    for (const auto& p : peers_) {
+      if (p.finished) continue;
+      // A level that delivered its statistics waits on the coupler, it is not silent.
+      if (!p.has_stats && t - p.last_seen > cfg.timeout) {
+        fail(fmt::format("level '{}' silent for {:.1f} s (timeout {} s) at interval {}", p.identity, t - p.last_seen,
+                         cfg.timeout, k_));
+        return 2;
+      }
+    }
+  }
+}
+
+}  // namespace mlcg::coupling

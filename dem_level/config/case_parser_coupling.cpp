@@ -1,0 +1,209 @@
+// The [coupling] section of a multi-level case: the coupling interval, the bus
+// settings and one [[coupling.regions]] entry per fine level. It runs after
+// [[levels]] (with their resolved dt) and [domain] are read, so level names,
+// time steps and boxes are checked where they are written.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <optional>
+
+#include "config/case_parser_detail.hpp"
+
+namespace mlcg::config::detail {
+
+namespace {
+
+const char* const kAxis[3] = {"x", "y", "z"};
+
+constexpr double kMinFineSteps = 15.0;   // automatic interval: at least this many steps of the finest dt
+constexpr int kMaxMultiples = 10000;      // multiples of the largest dt tried before giving up
+constexpr double kDivideTolerance = 1e-9;  // relative tolerance of "dt divides the interval"
+
+// dt divides interval: interval / dt is a whole number >= 1 (within 1e-9 relative).
+bool divides(double dt, double interval) {
+  const double r = interval / dt;
+  const double k = std::round(r);
+  return k >= 1.0 && std::abs(r - k) < kDivideTolerance * r;
+}
+
+double largest_dt(const std::vector<LevelSpec>& levels) {
+  double dt = 0.0;
+  for (const LevelSpec& l : levels) dt = std::max(dt, l.dt);
+  return dt;
+}
+
+double smallest_dt(const std::vector<LevelSpec>& levels) {
+  double dt = std::numeric_limits<double>::infinity();
+  for (const LevelSpec& l : levels) dt = std::min(dt, l.dt);
+  return dt;
+}
+
+// The smallest multiple k x (largest dt) that is >= at_least and that every
+// level's dt divides; nullopt when none of kMaxMultiples multiples (counting
+// from the first one that could reach at_least) is.
+std::optional<double> common_multiple(const std::vector<LevelSpec>& levels, double at_least) {
+  const double dt_max = largest_dt(levels);
+  const double first = std::max(1.0, std::floor(at_least / dt_max));
+  for (int i = 0; i < kMaxMultiples; ++i) {
+    const double c = (first + i) * dt_max;
+    if (c < at_least * (1.0 - kDivideTolerance)) continue;
+    if (std::all_of(levels.begin(), levels.end(), [&](const LevelSpec& l) { return divides(l.dt, c); })) return c;
+  }
+  return std::nullopt;
+}
+
+// "level 'coarse' (dt = 2e-06)", saying where dt came from when it was scaled.
+std::string describe_dt(const LevelSpec& l) {
+  std::string s = "level '" + l.name + "' (dt = " + num(l.dt);
+  if (l.dt_alpha1 > 0.0) s += " = dt_alpha1 " + num(l.dt_alpha1) + " x alpha " + num(l.alpha);
+  return s + ")";
+}
+
+std::string all_dts(const std::vector<LevelSpec>& levels) {
+  std::vector<std::string> parts;
+  for (const LevelSpec& l : levels) parts.push_back("'" + l.name + "' " + num(l.dt));
+  return join(parts);
+}
+
+const LevelSpec& level_named(const CaseSpec& spec, const std::string& name) {
+  return *std::find_if(spec.levels.begin(), spec.levels.end(), [&](const LevelSpec& l) { return l.name == name; });
+}
+
+// interval > 0: every level's dt must divide it. interval == 0: the smallest
+// multiple of every dt that is >= 15 steps of the finest level.
+double resolve_interval(const Table& t, double interval, const std::vector<LevelSpec>& levels) {
+  const auto automatic = common_multiple(levels, kMinFineSteps * smallest_dt(levels));
+  if (interval > 0.0) {
+    for (const LevelSpec& l : levels) {
+      if (divides(l.dt, interval)) continue;
+      const auto next = common_multiple(levels, interval);
+      std::string fix = next ? "e.g. interval = " + num(*next) + " (the next multiple of every level's dt)"
+                             : std::string("a whole multiple of every level's dt");
+      if (automatic) fix += ", or interval = 0 (automatic: " + num(*automatic) + ")";
+      t.fail("interval", num(interval) + " is not a whole multiple of the time step of " + describe_dt(l) +
+                             "; interval / dt = " + num(interval / l.dt) +
+                             "; every level's dt must divide the coupling interval; give " + fix);
+    }
+    return interval;
+  }
+  if (!automatic)
+    t.fail("interval", "no automatic coupling interval: none of " + std::to_string(kMaxMultiples) +
+                           " multiples of the largest dt (" + num(largest_dt(levels)) +
+                           ") is a whole multiple of every level's dt (" + all_dts(levels) +
+                           "); give the levels time steps with a common multiple, e.g. each a whole multiple of the finest dt");
+  return *automatic;
+}
+
+CouplingRegionSpec read_region(const Table& r, const CaseSpec& spec, const Names& names) {
+  r.allow({"coarse", "fine", "min", "max", "cell_size", "inside", "insert_depth", "fade", "kp", "ki",
+           "traction_limit", "correct", "velocity_gain", "acceleration_limit", "velocity_only_below", "radius_bins"});
+  CouplingRegionSpec g;
+  g.coarse = r.required_string("coarse", "the name of the coarser [[levels]] entry, e.g. coarse = \"cg2\"");
+  check_reference(r, "coarse", g.coarse, names.levels, "level");
+  g.fine = r.required_string("fine", "the name of the finer [[levels]] entry (smaller alpha), e.g. fine = \"fine\"");
+  check_reference(r, "fine", g.fine, names.levels, "level");
+  const LevelSpec& coarse = level_named(spec, g.coarse);
+  const LevelSpec& fine = level_named(spec, g.fine);
+  r.check("fine", g.fine != g.coarse,
+          "'" + g.fine + "' is also the coarse level; a region couples two different levels, the fine one with "
+          "the smaller alpha");
+  r.check("fine", fine.alpha < coarse.alpha,
+          "level '" + g.fine + "' has alpha = " + num(fine.alpha) + ", not below alpha = " + num(coarse.alpha) +
+              " of the coarse level '" + g.coarse + "'; the fine level needs the smaller coarse-grain ratio "
+              "(alpha(coarse) > alpha(fine)); swap coarse and fine or correct the levels' alpha");
+
+  read_box(r, g.min, g.max, "the fine region");
+  check_inside_domain(r, "min", "max", g.min, g.max, spec.domain);
+  g.cell_size = r.number("cell_size", g.cell_size);
+  r.positive("cell_size", g.cell_size, "m");
+  if (const auto p = r.vec3("inside")) {
+    for (int a = 0; a < 3; ++a)
+      r.check("inside", (*p)[a] >= g.min[a] && (*p)[a] <= g.max[a],
+              std::string(kAxis[a]) + " = " + num((*p)[a]) + " is outside the region's box (" + kAxis[a] +
+                  " from " + num(g.min[a]) + " to " + num(g.max[a]) +
+                  "); give a point inside min..max that lies inside the geometry");
+    g.inside = *p;
+  }
+  g.insert_depth = r.number("insert_depth", g.insert_depth);
+  r.non_negative("insert_depth", g.insert_depth, "m (0 = automatic)");
+  g.fade = r.number("fade", g.fade);
+  r.positive("fade", g.fade, "fine particle diameters");
+  g.kp = r.number("kp", g.kp);
+  r.non_negative("kp", g.kp, "Pa traction per Pa stress error");
+  g.ki = r.number("ki", g.ki);
+  r.non_negative("ki", g.ki, "1/s");
+  g.traction_limit = r.number("traction_limit", g.traction_limit);
+  r.non_negative("traction_limit", g.traction_limit, "Pa (0 = automatic)");
+  g.correct = r.choice("correct", g.correct, {"mass_flow", "velocity", "none"});
+  g.velocity_gain = r.number("velocity_gain", g.velocity_gain);
+  r.positive("velocity_gain", g.velocity_gain, "1/s");
+  g.acceleration_limit = r.number("acceleration_limit", g.acceleration_limit);
+  r.non_negative("acceleration_limit", g.acceleration_limit, "m/s^2 (0 = automatic)");
+  g.velocity_only_below = r.number("velocity_only_below", g.velocity_only_below, true);
+  const int64_t bins = r.integer("radius_bins").value_or(g.radius_bins);
+  r.check("radius_bins", bins >= 1 && bins <= 1'000'000,
+          std::to_string(bins) + " is not a valid number of size bins; give an integer >= 1");
+  g.radius_bins = static_cast<int>(bins);
+  g.loc = r.loc();
+  return g;
+}
+
+}  // namespace
+
+void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
+  const auto t = root.table("coupling");
+  if (!t) return;  // more than one level without [coupling] is refused by read_levels
+  if (spec.levels.size() < 2)
+    t->fail_table("a [coupling] section needs more than one [[levels]] entry, found " +
+                  std::to_string(spec.levels.size()) +
+                  "; remove [coupling] for a single-level case, or add the finer [[levels]] it couples");
+  t->allow({"interval", "endpoint", "heartbeat", "timeout", "regions"});
+  CouplingSpec c;
+  c.interval = t->number("interval", c.interval);
+  t->non_negative("interval", c.interval, "s (0 = automatic)");
+  c.interval = resolve_interval(*t, c.interval, spec.levels);
+  c.endpoint = t->string("endpoint").value_or(c.endpoint);
+  t->check("endpoint",
+           c.endpoint.empty() || ((c.endpoint.rfind("tcp://", 0) == 0 || c.endpoint.rfind("ipc://", 0) == 0) &&
+                                  c.endpoint.size() > 6),
+           "'" + c.endpoint + "' is not an endpoint the levels can reach; give tcp://HOST:PORT or ipc://PATH, or "
+           "leave it out (ipc:// in the run folder)");
+  c.heartbeat = t->number("heartbeat", c.heartbeat);
+  t->positive("heartbeat", c.heartbeat, "s of wall time");
+  c.timeout = t->number("timeout", c.timeout);
+  t->check("timeout", c.timeout > c.heartbeat,
+           num(c.timeout) + " is not longer than heartbeat = " + num(c.heartbeat) +
+               "; give a timeout in s of wall time above the heartbeat");
+
+  const auto tables = array_of_tables(*t, "regions");
+  if (tables.empty())
+    fail(root.doc(), t->line("regions"), t->key("regions"),
+         "no regions; give at least one [[coupling.regions]] entry (the fine region of each finer level)");
+  std::map<std::string, std::string> fine_of;  // fine level -> "coupling.regions[0], line 40"
+  for (const Table& r : tables) {
+    CouplingRegionSpec g = read_region(r, spec, names);
+    const auto [it, fresh] = fine_of.emplace(g.fine, r.path() + ", line " + std::to_string(r.line("fine")));
+    if (!fresh)
+      r.fail("fine", "level '" + g.fine + "' is already the fine level of " + it->second +
+                         "; every fine level belongs to exactly one [[coupling.regions]] entry");
+    c.regions.push_back(std::move(g));
+  }
+  // A level no region names would run uncoupled next to the others.
+  const auto levels = array_of_tables(root, "levels");
+  for (size_t i = 0; i < spec.levels.size(); ++i) {
+    const std::string& name = spec.levels[i].name;
+    const bool used = std::any_of(c.regions.begin(), c.regions.end(), [&](const CouplingRegionSpec& g) {
+      return g.coarse == name || g.fine == name;
+    });
+    if (used) continue;
+    const std::string what = "level '" + name + "' is in no [[coupling.regions]] entry; name it as coarse or fine "
+                             "of a region, or remove the level";
+    if (levels[i].has("name")) levels[i].fail("name", what);
+    levels[i].fail_table(what);
+  }
+  c.loc = t->loc();
+  spec.coupling = std::move(c);
+}
+
+}  // namespace mlcg::config::detail

@@ -1,0 +1,165 @@
+#include "coupling/client.hpp"
+
+#include <algorithm>
+
+#include <zmq.hpp>
+
+#include "bus/channel.hpp"
+
+namespace mlcg::coupling {
+
+namespace {
+std::string seconds(double s) {
+  std::string t = std::to_string(s);
+  t.erase(t.find_last_not_of('0') + 1);
+  if (!t.empty() && t.back() == '.') t.pop_back();
+  return t + " s";
+}
+}  // namespace
+
+Client::Client(const Comm& comm, ClientOptions opt) : comm_(comm), opt_(std::move(opt)) {
+  if (opt_.endpoint.empty()) throw std::invalid_argument("coupling client: no coupler endpoint");
+  if (opt_.level_name.empty()) throw std::invalid_argument("coupling client: no level name");
+  if (comm_.rank() != 0) return;
+  ctx_ = std::make_unique<zmq::context_t>(1);
+  try {
+    ch_ = std::make_unique<bus::Channel>(*ctx_, bus::Channel::Role::Dealer, opt_.endpoint, opt_.level_name);
+  } catch (const zmq::error_t& e) {
+    throw CouplingError("cannot connect to the coupler at " + opt_.endpoint + ": " + e.what());
+  }
+  last_sent_ = Clock::now();
+}
+
+Client::~Client() = default;  // the socket (linger 0) closes before its context
+
+void Client::send(const bus::Envelope& env) {
+  ch_->send(env);
+  last_sent_ = Clock::now();
+}
+
+std::string Client::wait_for(int want, const std::string& what, bool heartbeats, double sim_time, uint64_t step) {
+  const auto span = [](double s) { return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s)); };
+  auto deadline = Clock::now() + span(opt_.timeout);
+  for (;;) {
+    const auto now = Clock::now();
+    if (now >= deadline)
+      throw CouplingError("no message from the coupler at " + opt_.endpoint + " for " + seconds(opt_.timeout) +
+                          " while waiting for " + what + " (timeout); is coupler_service running and reachable there?");
+    auto until = deadline;
+    if (heartbeats) until = std::min(until, last_sent_ + span(opt_.heartbeat));
+    const auto wait = std::max<int64_t>(
+        0, std::chrono::duration_cast<std::chrono::milliseconds>(until - now).count() + 1);
+    auto in = ch_->receive(std::chrono::milliseconds(wait));
+    if (!in) {
+      if (heartbeats && Clock::now() >= last_sent_ + span(opt_.heartbeat)) {
+        bus::Envelope hb;
+        hb.mutable_heartbeat()->set_sim_time(sim_time);
+        hb.mutable_heartbeat()->set_step(step);
+        send(hb);
+      }
+      continue;
+    }
+    deadline = Clock::now() + span(opt_.timeout);  // the coupler is alive
+    if (!in->ok()) {
+      if (opt_.warn) opt_.warn("ignored a message from the coupler at " + opt_.endpoint + ": " + in->error);
+      continue;
+    }
+    const bus::Envelope& env = in->env;
+    if (env.body_case() == want) {
+      switch (env.body_case()) {
+        case bus::Envelope::kWelcome: return env.welcome().SerializeAsString();
+        case bus::Envelope::kCommands: return env.commands().SerializeAsString();
+        default: return {};
+      }
+    }
+    if (env.has_refused())
+      throw CouplingError("the coupler at " + opt_.endpoint + " refused level '" + opt_.level_name +
+                          "': " + env.refused().reason());
+    if (env.has_bye())
+      throw CouplingError("the coupler at " + opt_.endpoint + " ended the run" +
+                          (env.bye().failed() ? " (failed)" : "") + " while level '" + opt_.level_name +
+                          "' waited for " + what + ": " + env.bye().reason());
+    if (env.has_heartbeat()) continue;
+    if (opt_.warn) opt_.warn("ignored a " + std::string(bus::body_name(env)) + " from the coupler while waiting for " + what);
+  }
+}
+
+std::string Client::broadcast(const std::function<std::string()>& fetch) {
+  // Rank 0 sends 'O' + payload or 'E' + the error, so every rank stops together.
+  std::string msg;
+  if (comm_.rank() == 0) {
+    msg.assign(1, 'O');
+    try {
+      msg += fetch();
+    } catch (const std::exception& e) {
+      msg.assign(1, 'E');
+      msg += e.what();
+    }
+  }
+  msg = comm_.bcast(msg, 0);
+  if (msg.empty() || msg[0] != 'O') throw CouplingError(msg.empty() ? std::string("coupling: empty broadcast") : msg.substr(1));
+  return msg.substr(1);
+}
+
+bus::Welcome Client::handshake(const bus::Register& reg) {
+  const std::string bytes = broadcast([&] {
+    bus::Envelope env;
+    *env.mutable_register_level() = reg;
+    send(env);
+    return wait_for(bus::Envelope::kWelcome, "the welcome (registration as '" + opt_.level_name + "')", false, 0.0, 0);
+  });
+  bus::Welcome w;
+  if (!w.ParseFromString(bytes)) throw CouplingError("coupling: the welcome did not survive the broadcast");
+  if (w.timeout_seconds() > 0.0) opt_.timeout = w.timeout_seconds();
+  if (w.heartbeat_seconds() > 0.0) opt_.heartbeat = w.heartbeat_seconds();
+  return w;
+}
+
+bus::IntervalCommands Client::commands(uint64_t k, double sim_time, uint64_t step) {
+  const std::string what = "the commands of interval " + std::to_string(k);
+  const std::string bytes = broadcast([&] {
+    const std::string b = wait_for(bus::Envelope::kCommands, what, true, sim_time, step);
+    bus::IntervalCommands c;
+    if (!c.ParseFromString(b)) throw CouplingError("coupling: unreadable commands");
+    if (c.interval() != k)
+      throw CouplingError("the coupler at " + opt_.endpoint + " sent the commands of interval " +
+                          std::to_string(c.interval()) + " while level '" + opt_.level_name + "' waited for " +
+                          std::to_string(k));
+    return b;
+  });
+  bus::IntervalCommands c;
+  c.ParseFromString(bytes);
+  return c;
+}
+
+void Client::send_stats(const bus::IntervalStats& s) {
+  if (comm_.rank() != 0) return;
+  bus::Envelope env;
+  *env.mutable_stats() = s;
+  send(env);
+}
+
+void Client::keepalive(double sim_time, uint64_t step) {
+  if (comm_.rank() != 0) return;
+  const auto now = Clock::now();
+  if (now - last_sent_ < std::chrono::duration<double>(opt_.heartbeat)) return;
+  bus::Envelope hb;
+  hb.mutable_heartbeat()->set_sim_time(sim_time);
+  hb.mutable_heartbeat()->set_step(step);
+  send(hb);
+}
+
+void Client::bye(const std::string& reason, bool failed) {
+  if (comm_.rank() != 0 || !ch_) return;
+  bus::Envelope env;
+  env.mutable_bye()->set_reason(reason);
+  env.mutable_bye()->set_failed(failed);
+  try {
+    send(env);
+    // The socket closes with the level; give the goodbye a moment to leave (linger is 0 otherwise).
+    ch_->socket().set(zmq::sockopt::linger, 2000);
+  } catch (const std::exception&) {  // the coupler is gone: nothing to tell
+  }
+}
+
+}  // namespace mlcg::coupling

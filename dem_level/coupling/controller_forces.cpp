@@ -1,0 +1,89 @@
+#include "coupling/controller_forces.hpp"
+
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace mlcg::coupling {
+
+ControllerForces::ControllerForces(const bus::CouplingGeometry& geo)
+    : geo_(geo), top_(geo.top()), depth_(geo.grid().fade_depth()), area_(geo.cell_size() * geo.cell_size()),
+      wsum_(geo.faces(), 0.0) {}
+
+void ControllerForces::set_traction(std::vector<double> traction, std::vector<double> speed_limit) {
+  const size_t nf = geo_.faces();
+  if (!traction.empty() && traction.size() != nf)
+    throw std::invalid_argument("traction has " + std::to_string(traction.size()) + " values, the grid " +
+                                std::to_string(nf) + " boundary faces");
+  if (!speed_limit.empty() && speed_limit.size() != nf)
+    throw std::invalid_argument("speed_limit has " + std::to_string(speed_limit.size()) + " values, the grid " +
+                                std::to_string(nf) + " boundary faces");
+  traction_ = std::move(traction);
+  vmax_ = std::move(speed_limit);
+  traction_on_ = false;
+  for (double t : traction_) traction_on_ = traction_on_ || t != 0.0;
+  traction_on_ = traction_on_ && depth_ > 0.0;
+  wsum_.assign(nf, 0.0);
+}
+
+void ControllerForces::set_acceleration(std::vector<double> acceleration) {
+  const size_t nc = geo_.cells();
+  if (!acceleration.empty() && acceleration.size() != 3 * nc)
+    throw std::invalid_argument("acceleration has " + std::to_string(acceleration.size()) + " values, expected 3 x " +
+                                std::to_string(nc) + " active cells");
+  accel_.assign(acceleration.empty() ? 0 : nc, Vec3{});
+  accel_on_ = false;
+  for (size_t c = 0; c < accel_.size(); ++c) {
+    accel_[c] = {acceleration[3 * c], acceleration[3 * c + 1], acceleration[3 * c + 2]};
+    accel_on_ = accel_on_ || !(accel_[c] == Vec3{});
+  }
+}
+
+double ControllerForces::weight(const Vec3& x, double r, int& face) const {
+  face = -1;
+  const double s = top_ - x.z;
+  if (!(s >= 0.0 && s < depth_)) return 0.0;
+  face = geo_.face_column(x);
+  if (face < 0) return 0.0;
+  return 4.0 / 3.0 * std::numbers::pi * r * r * r * (1.0 - s / depth_);
+}
+
+void ControllerForces::normalise(const Particles& p, const Comm& comm) {
+  wsum_.assign(geo_.faces(), 0.0);
+  if (!traction_on_) return;  // the same on every rank: the commands are
+  for (size_t i = 0; i < p.n_local(); ++i) {
+    int f = -1;
+    const double w = weight(p.x[i], p.radius[i], f);
+    if (f >= 0) wsum_[static_cast<size_t>(f)] += w;
+  }
+  comm.sum_in_place(wsum_.data(), wsum_.size());
+}
+
+void ControllerForces::apply(Particles& p) const {
+  const size_t n = p.n_local();
+  if (traction_on_) {
+    for (size_t i = 0; i < n; ++i) {
+      int f = -1;
+      const double w = weight(p.x[i], p.radius[i], f);
+      if (f < 0) continue;
+      const auto fs = static_cast<size_t>(f);
+      if (wsum_[fs] <= 0.0 || traction_[fs] == 0.0) continue;
+      Vec3 F{0.0, 0.0, -traction_[fs] * area_ * w / wsum_[fs]};
+      if (!vmax_.empty()) {
+        const Vec3& v = p.v[i];
+        const double v2 = norm2(v), fv = dot(F, v);
+        if (v2 > 0.0 && v2 >= vmax_[fs] * vmax_[fs] && fv > 0.0) F -= (fv / v2) * v;
+      }
+      p.f[i] += F;
+    }
+  }
+  if (accel_on_) {
+    for (size_t i = 0; i < n; ++i) {
+      const int c = geo_.locate(p.x[i]);
+      if (c < 0) continue;
+      p.f[i] += p.mass[i] * accel_[static_cast<size_t>(c)];
+    }
+  }
+}
+
+}  // namespace mlcg::coupling

@@ -1,0 +1,49 @@
+#pragma once
+// The coupler's forces on a level's particles, added every step after the
+// contact forces (paper section 2.3).
+//
+// Fine role, per transition cell c (face f) with traction T_f [Pa] and speed
+// limit vmax_f: a particle whose centre lies in the cell's column at depth
+// s = top - z in [0, D) (D = grid.fade_depth) has the weight w = V (1 - s/D) and
+// gets   F = -z T_f h^2 w / W_f,   W_f = sum of the weights over all ranks, taken
+// once at the start of the interval, so that the forces of a cell add up to
+// T_f h^2 there. A particle at or above vmax_f loses the component of F along
+// its velocity that would make it faster.
+//
+// Coarse role, per active cell c with acceleration a_c: every particle whose
+// centre is in the cell gets F = m a_c.
+#include <vector>
+
+#include "bus/coupling_grid.hpp"
+#include "core/particles.hpp"
+#include "parallel/comm.hpp"
+
+namespace mlcg::coupling {
+
+class ControllerForces {
+ public:
+  explicit ControllerForces(const bus::CouplingGeometry& geo);
+
+  // Fine role: per face traction [Pa] and speed limit [m/s]; empty = none (all zero / no limit).
+  void set_traction(std::vector<double> traction, std::vector<double> speed_limit);
+  // Coarse role: 3 per active cell [m/s^2]; empty = none.
+  void set_acceleration(std::vector<double> acceleration);
+  // Collective (fine role): the weight sums W_f over all ranks at the current positions.
+  void normalise(const Particles& p, const Comm& comm);
+  // Adds the forces to this rank's particles (p.f).
+  void apply(Particles& p) const;
+  bool active() const { return traction_on_ || accel_on_; }
+
+  // Fade weight of a centre x (radius r) and its face; 0 and face -1 outside every faded column.
+  double weight(const Vec3& x, double r, int& face) const;
+  const std::vector<double>& weight_sums() const { return wsum_; }
+
+ private:
+  bus::CouplingGeometry geo_;
+  double top_ = 0.0, depth_ = 0.0, area_ = 0.0;
+  std::vector<double> traction_, vmax_, wsum_;
+  std::vector<Vec3> accel_;
+  bool traction_on_ = false, accel_on_ = false;
+};
+
+}  // namespace mlcg::coupling

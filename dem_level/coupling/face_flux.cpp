@@ -1,0 +1,67 @@
+#include "coupling/face_flux.hpp"
+
+#include <algorithm>
+
+namespace mlcg::coupling {
+
+int face_radius_bin(const std::vector<double>& e, double r) {
+  if (e.size() < 2) return -1;
+  const int last = static_cast<int>(e.size()) - 2;
+  const auto b = static_cast<int>(std::upper_bound(e.begin(), e.end(), r) - e.begin()) - 1;
+  return std::clamp(b, 0, last);
+}
+
+FaceFlux::FaceFlux(const bus::CouplingGeometry& geo)
+    : geo_(geo), nf_(geo.faces()), edges_(geo.grid().radius_bins().begin(), geo.grid().radius_bins().end()),
+      plane_(Vec3{0.0, 0.0, geo.top()}, Vec3{0.0, 0.0, -1.0}) {
+  nb_ = edges_.size() >= 2 ? edges_.size() - 1 : 1;
+  reset();
+}
+
+void FaceFlux::reset() {
+  mass.assign(nf_, 0.0);
+  momentum.assign(3 * nf_, 0.0);
+  moment.assign(3 * nf_, 0.0);
+  histogram.assign(nf_ * nb_, 0);
+}
+
+void FaceFlux::refresh(const Particles& p, double band) {
+  const Vec3 lo = geo_.box_lo(), hi = geo_.box_hi();
+  plane_.refresh(p, band, [&](const Vec3& x, double) {
+    return x.x >= lo.x - band && x.x <= hi.x + band && x.y >= lo.y - band && x.y <= hi.y + band;
+  });
+}
+
+void FaceFlux::check(const Particles& p) {
+  plane_.check(p, [&](size_t i, bool down, double, const Vec3& before) {
+    const Vec3 xc = plane_.crossing_point(before, p.x[i]);
+    const int f = geo_.face_column(xc);
+    if (f < 0) return;
+    const auto fs = static_cast<size_t>(f);
+    const double m = down ? p.mass[i] : -p.mass[i];
+    const Vec3 mv = m * p.v[i], mx = m * xc;
+    mass[fs] += m;
+    for (int a = 0; a < 3; ++a) {
+      momentum[3 * fs + static_cast<size_t>(a)] += mv[a];
+      moment[3 * fs + static_cast<size_t>(a)] += mx[a];
+    }
+    const int b = std::max(0, face_radius_bin(edges_, p.radius[i]));
+    histogram[fs * nb_ + static_cast<size_t>(b)] += down ? 1 : -1;
+  });
+}
+
+void FaceFlux::reduce(const Comm& comm) {
+  if (comm.serial()) return;
+  std::vector<double> all;
+  all.reserve(7 * nf_);
+  all.insert(all.end(), mass.begin(), mass.end());
+  all.insert(all.end(), momentum.begin(), momentum.end());
+  all.insert(all.end(), moment.begin(), moment.end());
+  comm.sum_in_place(all.data(), all.size());
+  std::copy(all.begin(), all.begin() + static_cast<long>(nf_), mass.begin());
+  std::copy(all.begin() + static_cast<long>(nf_), all.begin() + static_cast<long>(4 * nf_), momentum.begin());
+  std::copy(all.begin() + static_cast<long>(4 * nf_), all.end(), moment.begin());
+  comm.sum_in_place(histogram.data(), histogram.size());
+}
+
+}  // namespace mlcg::coupling

@@ -1,0 +1,110 @@
+#include "coupling/grid_link.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace mlcg::coupling {
+
+const char* to_string(Role r) { return r == Role::Coarse ? "coarse" : "fine"; }
+
+GridLink::GridLink(uint32_t index, const bus::CouplingGrid& grid, Role role)
+    : index_(index), role_(role), geo_(grid), top_(geo_.top()), lo_(geo_.box_lo()), hi_(geo_.box_hi()), flux_(geo_),
+      cells_(geo_), forces_(geo_) {
+  if (role == Role::Coarse && grid.radius_bins_size() < 2)
+    throw std::invalid_argument("grid " + std::to_string(index) + ": radius_bins has " +
+                                std::to_string(grid.radius_bins_size()) +
+                                " edges; the coarse level needs at least 2 (one bin) for the face size histograms");
+}
+
+std::vector<ParticleInit> GridLink::parse_inserts(const bus::GridCommands& c, int material, double density,
+                                                  int64_t first_id) {
+  const auto& a = c.insert();
+  if (a.size() % 7 != 0)
+    throw std::invalid_argument("grid " + std::to_string(c.grid()) + ": insert has " + std::to_string(a.size()) +
+                                " values, not a multiple of 7 (x y z r vx vy vz per particle)");
+  std::vector<ParticleInit> out;
+  out.reserve(static_cast<size_t>(a.size() / 7));
+  for (int k = 0; k < a.size(); k += 7) {
+    for (int j = 0; j < 7; ++j)
+      if (!std::isfinite(a[k + j]))
+        throw std::invalid_argument("grid " + std::to_string(c.grid()) + ": insert particle " + std::to_string(k / 7) +
+                                    " has a non-finite value");
+    if (!(a[k + 3] > 0.0))
+      throw std::invalid_argument("grid " + std::to_string(c.grid()) + ": insert particle " + std::to_string(k / 7) +
+                                  " has radius " + std::to_string(a[k + 3]));
+    ParticleInit pi;
+    pi.id = first_id + k / 7;
+    pi.material = material;
+    pi.density = density;
+    pi.x = {a[k], a[k + 1], a[k + 2]};
+    pi.radius = a[k + 3];
+    pi.v = {a[k + 4], a[k + 5], a[k + 6]};
+    out.push_back(pi);
+  }
+  return out;
+}
+
+void GridLink::begin_interval(const bus::GridCommands* c, const Particles& p, const Comm& comm, uint64_t inserted,
+                              double inserted_mass) {
+  const std::string where = "grid " + std::to_string(index_) + " (" + to_string(role_) + " level): ";
+  try {
+    if (role_ == Role::Fine) {
+      forces_.set_traction(c ? std::vector<double>(c->traction().begin(), c->traction().end()) : std::vector<double>{},
+                           c ? std::vector<double>(c->speed_limit().begin(), c->speed_limit().end())
+                             : std::vector<double>{});
+      forces_.normalise(p, comm);
+    } else {
+      forces_.set_acceleration(c ? std::vector<double>(c->acceleration().begin(), c->acceleration().end())
+                                 : std::vector<double>{});
+    }
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(where + e.what());
+  }
+  flux_.reset();
+  inserted_ = inserted;
+  inserted_mass_ = inserted_mass;
+  removed_ = removed_mass_ = 0.0;
+}
+
+bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_max) {
+  bus::GridStats g;
+  g.set_grid(index_);
+  if (role_ == Role::Coarse) {
+    flux_.reduce(comm);
+    g.mutable_face_mass()->Assign(flux_.mass.begin(), flux_.mass.end());
+    g.mutable_face_momentum()->Assign(flux_.momentum.begin(), flux_.momentum.end());
+    g.mutable_face_moment()->Assign(flux_.moment.begin(), flux_.moment.end());
+    g.mutable_face_histogram()->Assign(flux_.histogram.begin(), flux_.histogram.end());
+  }
+  const CellMeans m = cells_.take();
+  g.mutable_cell_stress()->Assign(m.stress.begin(), m.stress.end());
+  g.mutable_cell_volume_fraction()->Assign(m.volume_fraction.begin(), m.volume_fraction.end());
+  g.mutable_cell_velocity()->Assign(m.velocity.begin(), m.velocity.end());
+  g.mutable_cell_max_speed()->Assign(m.max_speed.begin(), m.max_speed.end());
+  if (role_ == Role::Fine) {
+    // Occupants of the insertion slabs: centres within r_max of the slabs below the boundary surface.
+    const double zlo = top_ - geo_.grid().insert_depth() - r_max, zhi = top_ + r_max;
+    std::vector<char> buf;
+    ByteWriter w(buf);
+    for (size_t i = 0; i < p.n_local(); ++i) {
+      const Vec3& x = p.x[i];
+      if (x.z < zlo || x.z > zhi || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y) continue;
+      const double q[4] = {x.x, x.y, x.z, p.radius[i]};
+      w.put_n(q, 4);
+    }
+    const std::vector<char> all = comm.gather0(buf);
+    g.mutable_occupants()->Resize(static_cast<int>(all.size() / sizeof(double)), 0.0);
+    if (!all.empty()) std::memcpy(g.mutable_occupants()->mutable_data(), all.data(), all.size());
+    double removed[2] = {removed_, removed_mass_};
+    comm.sum_in_place(removed, 2);
+    g.set_inserted(inserted_);
+    g.set_inserted_mass(inserted_mass_);
+    g.set_removed(static_cast<uint64_t>(std::llround(removed[0])));
+    g.set_removed_mass(removed[1]);
+  }
+  return g;
+}
+
+}  // namespace mlcg::coupling

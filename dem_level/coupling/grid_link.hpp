@@ -1,0 +1,93 @@
+#pragma once
+// One coupling grid as a level sees it: its role there (coarse or fine), the
+// measurements it owes the coupler each interval and the commands it applies.
+//
+//   coarse role: face crossings (FaceFlux), cell means (CellStats), and the
+//                correcting accelerations of the active cells (ControllerForces)
+//   fine role:   cell means, the insertion list, the transition-layer traction
+//                (ControllerForces), the removal of particles that leave the
+//                region upward or sideways, and the occupants of the insertion slabs
+//
+// Every rank holds one GridLink per grid; every call is made on every rank
+// (those marked collective communicate). Every rank builds the same GridStats
+// except for the occupants, which are gathered on rank 0, the rank that sends.
+#include <cstdint>
+#include <vector>
+
+#include "bus/coupling_grid.hpp"
+#include "core/particles.hpp"
+#include "coupling/cell_stats.hpp"
+#include "coupling/controller_forces.hpp"
+#include "coupling/face_flux.hpp"
+#include "mlcg/bus.pb.h"
+#include "parallel/comm.hpp"
+
+namespace mlcg::coupling {
+
+enum class Role { Coarse, Fine };
+const char* to_string(Role r);
+
+class GridLink {
+ public:
+  // Throws std::invalid_argument on an inconsistent grid (a coarse role needs >= 2 radius bin edges).
+  GridLink(uint32_t index, const bus::CouplingGrid& grid, Role role);
+
+  uint32_t index() const { return index_; }
+  Role role() const { return role_; }
+  const bus::CouplingGeometry& geometry() const { return geo_; }
+
+  // The particles of an insertion list (x y z r vx vy vz each), ids first_id,
+  // first_id + 1, ... in list order. Throws std::invalid_argument on a list
+  // that is not a whole number of particles or has a radius <= 0 or a non-finite value.
+  static std::vector<ParticleInit> parse_inserts(const bus::GridCommands& c, int material, double density,
+                                                 int64_t first_id);
+
+  // Collective. Start of an interval, after the insertion (its count and mass):
+  // takes the commands (null = none: no forces), takes the controller's weight
+  // sums, zeroes the interval's sums. Throws std::invalid_argument on commands
+  // that do not fit the grid.
+  void begin_interval(const bus::GridCommands* c, const Particles& p, const Comm& comm, uint64_t inserted,
+                      double inserted_mass);
+  void refresh(const Particles& p, double band) {  // after a neighbour-list rebuild
+    if (role_ == Role::Coarse) flux_.refresh(p, band);
+  }
+  void after_drift(const Particles& p) {  // after the positions moved
+    if (role_ == Role::Coarse) flux_.check(p);
+  }
+  void add_forces(Particles& p) const {
+    if (forces_.active()) forces_.apply(p);
+  }
+  // Fine role: a centre above the boundary surface or beside the box has left the region.
+  bool leaves(const Vec3& x) const {
+    return role_ == Role::Fine && (x.z > top_ || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y);
+  }
+  void count_removed(double mass) {
+    removed_ += 1.0;
+    removed_mass_ += mass;
+  }
+  // Collective: one sample of the cell statistics.
+  void sample(const Particles& p, const std::vector<double>& stress6, const Comm& comm) {
+    cells_.sample(p, stress6, comm);
+  }
+  // Collective: the interval's statistics (the same on every rank). r_max: the
+  // level's largest radius (the occupant slab reaches that far beyond the insertion slab).
+  bus::GridStats finish(const Particles& p, const Comm& comm, double r_max);
+
+  const FaceFlux& flux() const { return flux_; }
+  const ControllerForces& forces() const { return forces_; }
+
+ private:
+  uint32_t index_;
+  Role role_;
+  bus::CouplingGeometry geo_;
+  double top_;
+  Vec3 lo_, hi_;
+  FaceFlux flux_;
+  CellStats cells_;
+  ControllerForces forces_;
+  uint64_t inserted_ = 0;
+  double inserted_mass_ = 0.0;
+  double removed_ = 0.0, removed_mass_ = 0.0;  // this rank's, this interval
+};
+
+}  // namespace mlcg::coupling

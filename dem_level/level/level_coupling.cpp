@@ -1,0 +1,262 @@
+// A level inside a multi-level run (paper section 2.3; DESIGN.md sections 3-4):
+// the hooks the time loop calls when LevelOptions::coupler is set. The bus and
+// the per-grid work live in coupling/; this file connects them to the level's
+// particles, insertion, removal and time loop.
+//
+// Interval k covers steps [k n, (k + 1) n), n = coupling interval / dt. At its
+// first step the level waits for the coupler's commands of k (insertion list,
+// traction, accelerations); after its last step it sends the statistics of k.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "bus/case_hash.hpp"
+#include "coupling/client.hpp"
+#include "coupling/grid_link.hpp"
+#include "level/level.hpp"
+#include "level/phase_timer.hpp"
+
+namespace mlcg {
+
+namespace {
+constexpr uint64_t kSamplesPerInterval = 5;  // cell samples per coupling interval (the last step always samples)
+
+double wall_now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// Steps per interval when dt divides the interval (1e-9 relative), else 0.
+uint64_t steps_per(double interval, double dt) {
+  const double r = interval / dt, k = std::round(r);
+  return k >= 1.0 && std::fabs(r - k) <= 1e-9 * r ? static_cast<uint64_t>(k) : 0;
+}
+}  // namespace
+
+struct Level::Coupled {
+  std::unique_ptr<coupling::Client> client;
+  std::vector<coupling::GridLink> grids;
+  uint64_t steps = 1;         // steps per interval
+  uint64_t sample_every = 1;  // steps between cell samples
+  uint64_t k = 0;             // the interval being run
+  uint64_t done = 0;          // its steps done
+  bool stop = false, checkpoint = false, finished = false;
+  double wall0 = 0.0;
+  int material = 0;           // of inserted particles
+  double density = 0.0;
+};
+
+void Level::CoupledDeleter::operator()(Coupled* c) const { delete c; }
+
+void Level::connect_coupler() {
+  const double interval_case = cs_.coupling ? cs_.coupling->interval : 0.0;
+  uint64_t start = 0;
+  if (step_ > 0) {  // continuing from a checkpoint: it must sit on an interval boundary
+    const uint64_t n = interval_case > 0.0 ? steps_per(interval_case, dt_) : 0;
+    if (n == 0 || step_ % n != 0)
+      throw std::runtime_error(fmt::format("level '{}': the checkpoint at step {} is not at the end of a coupling "
+                                           "interval of the case's [coupling] ({} s = {} steps)",
+                                           lvl_.name, step_, interval_case, n));
+    start = step_ / n;
+  }
+  coupling::ClientOptions o;
+  o.endpoint = opt_.coupler;
+  o.level_name = lvl_.name;
+  if (cs_.coupling) {
+    o.timeout = cs_.coupling->timeout;
+    o.heartbeat = cs_.coupling->heartbeat;
+  }
+  auto log = log_;
+  o.warn = [log](const std::string& m) { log->warn("{}", m); };
+  auto c = std::make_unique<Coupled>();
+  c->client = std::make_unique<coupling::Client>(comm_, o);
+
+  bus::Register reg;
+  reg.set_level_name(lvl_.name);
+  reg.set_alpha(alpha_);
+  reg.set_dt(dt_);
+  reg.set_ranks(static_cast<uint32_t>(comm_.size()));
+  reg.set_case_hash(bus::case_hash(cs_.path));
+  std::error_code ec;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  reg.set_binary(ec ? std::string("dem_level") : exe.string());
+  reg.set_start_interval(start);
+  log_->info("level '{}': registering with the coupler at {} (interval {})", lvl_.name, o.endpoint, start);
+  const bus::Welcome w = c->client->handshake(reg);
+
+  c->steps = steps_per(w.coupling_interval(), dt_);
+  if (c->steps == 0)
+    throw std::runtime_error(fmt::format("level '{}': the coupler's interval {} s is not a whole multiple of dt = {} s",
+                                         lvl_.name, w.coupling_interval(), dt_));
+  if (w.start_interval() != start)
+    throw std::runtime_error(fmt::format("level '{}': the coupler starts at interval {}, this level at {}", lvl_.name,
+                                         w.start_interval(), start));
+  c->sample_every = std::max<uint64_t>(1, c->steps / kSamplesPerInterval);
+  c->k = start;
+  for (int g = 0; g < w.grids_size(); ++g) {
+    const auto& grid = w.grids(g);
+    const bool coarse = grid.coarse_level() == w.level_index(), fine = grid.fine_level() == w.level_index();
+    if (!coarse && !fine) continue;
+    try {
+      c->grids.emplace_back(static_cast<uint32_t>(g), grid, coarse ? coupling::Role::Coarse : coupling::Role::Fine);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(fmt::format("level '{}': the coupler's {}", lvl_.name, e.what()));
+    }
+    const auto& geo = c->grids.back().geometry();
+    log_->info("coupling grid {}: {} level, {} cells, {} boundary faces at z = {} m", g,
+               coupling::to_string(c->grids.back().role()), geo.cells(), geo.faces(), geo.top());
+  }
+  if (c->grids.empty()) log_->warn("level '{}' takes part in none of the coupler's {} grids", lvl_.name, w.grids_size());
+  c->material = cs_.insertions.empty() ? 0 : mt_.index_of(cs_.insertions.front().material);
+  c->density = mt_.material(c->material).density;
+  log_->info("coupled as level {} of {}: interval {} s = {} steps, {} cell samples per interval", w.level_index(),
+             w.level_count(), w.coupling_interval(), c->steps, (c->steps + c->sample_every - 1) / c->sample_every);
+  coupled_.reset(c.release());
+  rebuild_pending_ = true;  // the crossing candidates start at a rebuild
+}
+
+void Level::coupling_begin_step() {
+  Coupled& c = *coupled_;
+  if (c.done != 0 || c.finished) return;
+  c.wall0 = wall_now();
+  bus::IntervalCommands cmd;
+  {
+    PhaseTimer t(times_.comm);
+    try {
+      cmd = c.client->commands(c.k, time(), step_);
+    } catch (const coupling::CouplingError& e) {
+      throw CouplingStop(e.what());
+    }
+  }
+  c.stop = cmd.stop();
+  c.checkpoint = cmd.checkpoint();
+  std::vector<const bus::GridCommands*> of(c.grids.size(), nullptr);
+  for (const auto& g : cmd.grids()) {
+    const auto it = std::find_if(c.grids.begin(), c.grids.end(), [&](const auto& l) { return l.index() == g.grid(); });
+    if (it == c.grids.end())
+      throw CouplingStop(fmt::format("the coupler sent commands for grid {}, in which level '{}' takes no part",
+                                     g.grid(), lvl_.name));
+    of[static_cast<size_t>(it - c.grids.begin())] = &g;
+  }
+  PhaseTimer t(times_.insert);
+  for (size_t l = 0; l < c.grids.size(); ++l) {
+    uint64_t count = 0;
+    double mass = 0.0;
+    if (c.grids[l].role() == coupling::Role::Fine && of[l] && of[l]->insert_size() > 0) {
+      // Every rank reads the same list: the ids agree, each rank keeps what it owns.
+      std::vector<ParticleInit> list;
+      try {
+        list = coupling::GridLink::parse_inserts(*of[l], c.material, c.density, next_id_);
+      } catch (const std::invalid_argument& e) {
+        throw CouplingStop(e.what());
+      }
+      detach_ghosts();
+      double r_big = 0.0;
+      for (const auto& pi : list) {
+        mass += pi.density * 4.0 / 3.0 * std::numbers::pi * pi.radius * pi.radius * pi.radius;
+        r_big = std::max(r_big, pi.radius);
+        if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
+      }
+      count = list.size();
+      next_id_ += static_cast<int64_t>(count);
+      explicit_count_ += static_cast<int64_t>(count);  // requested and inserted, like the case's own particles
+      explicit_mass_ += mass;
+      rebuild_pending_ = true;
+      if (r_big > r_max_) {  // the same on every rank
+        log_->warn("coupling: inserted radius {:.4g} m exceeds the largest radius {:.4g} m the level was set up for",
+                   r_big, r_max_);
+        r_max_ = r_big;
+        if (skin_ <= 0.0) {
+          skin_ = 0.5 * r_max_;
+          nl_.set_skin(skin_);
+        }
+        ghost_cutoff_ = 2.0 * r_max_ + skin_;
+      }
+    }
+    try {
+      c.grids[l].begin_interval(of[l], p_, comm_, count, mass);
+    } catch (const std::invalid_argument& e) {
+      throw CouplingStop(e.what());
+    }
+  }
+}
+
+void Level::coupling_after_drift() {
+  PhaseTimer t(times_.measure);
+  for (auto& g : coupled_->grids) g.after_drift(p_);
+}
+
+bool Level::coupling_wants_stress() const {
+  const Coupled& c = *coupled_;
+  const uint64_t j = c.done + 1;  // this step's number within the interval
+  return !c.grids.empty() && (j % c.sample_every == 0 || j == c.steps);
+}
+
+void Level::coupling_forces() {
+  for (const auto& g : coupled_->grids) g.add_forces(p_);
+}
+
+bool Level::coupling_removes(size_t i) {
+  for (auto& g : coupled_->grids)
+    if (g.leaves(p_.x[i])) {
+      g.count_removed(p_.mass[i]);
+      return true;
+    }
+  return false;
+}
+
+void Level::coupling_refresh() {
+  for (auto& g : coupled_->grids) g.refresh(p_, skin_);
+}
+
+bool Level::coupling_finished() const { return coupled_->finished; }
+
+void Level::coupling_end_step() {
+  Coupled& c = *coupled_;
+  const bool sample = coupling_wants_stress();
+  ++c.done;
+  if (sample) {
+    PhaseTimer t(times_.measure);
+    for (auto& g : c.grids) g.sample(p_, stress6_, comm_);
+  }
+  if (c.done < c.steps) {
+    c.client->keepalive(time(), step_);
+    return;
+  }
+  bus::IntervalStats s;
+  {
+    PhaseTimer t(times_.comm);
+    s.set_interval(c.k);
+    s.set_sim_time(time());
+    for (auto& g : c.grids) *s.add_grids() = g.finish(p_, comm_, r_max_);
+    s.set_particles(static_cast<uint64_t>(comm_.sum(static_cast<int64_t>(p_.n_local()))));
+    s.set_wall_seconds(wall_now() - c.wall0);
+    c.client->send_stats(s);
+  }
+  if (c.checkpoint && !opt_.out_dir.empty()) {
+    PhaseTimer t(times_.output);
+    write_checkpoint(opt_.out_dir / "checkpoint.h5");
+    rebuild_pending_ = true;  // as a restarted run will
+  }
+  ++c.k;
+  c.done = 0;
+  c.finished = c.stop;
+}
+
+void Level::coupling_bye(RunStatus status, const std::string& reason) {
+  Coupled& c = *coupled_;
+  std::string why = reason;
+  if (why.empty())
+    why = c.finished ? fmt::format("finished after interval {}", c.k - 1)
+                     : fmt::format("{} at t = {:.6g} s (interval {}, step {} of {})", to_string(status), time(), c.k,
+                                   c.done, c.steps);
+  const bool failed = status == RunStatus::Failed || status == RunStatus::Interrupted;
+  c.client->bye(why, failed);
+  log_->info("coupling: said bye to the coupler ({})", why);
+}
+
+}  // namespace mlcg

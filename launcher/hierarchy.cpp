@@ -1,0 +1,113 @@
+#include "hierarchy.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "io/atomic_file.hpp"
+#include "process.hpp"
+
+namespace fs = std::filesystem;
+
+namespace mlcg::launcher {
+namespace {
+
+// ipc:// paths must stay under ~107 characters; fall back to /tmp.
+std::string bus_endpoint(const fs::path& run_dir) {
+  const std::string p = (fs::absolute(run_dir) / "bus.ipc").string();
+  if (p.size() < 100) return "ipc://" + p;
+  return fmt::format("ipc:///tmp/mlcg-bus-{}.ipc", getpid());
+}
+
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  if (!in) return nlohmann::json::object();
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const std::exception&) {
+    return nlohmann::json::object();
+  }
+}
+
+// One summary over the hierarchy: every level's entry, the finest level's
+// probes (data at the highest resolution available), overall status.
+void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const GroupResult& r) {
+  nlohmann::json s;
+  s["case"] = cs.path;
+  s["title"] = cs.title;
+  s["status"] = r.exit_code == 0 ? "completed" : (r.interrupted ? "interrupted" : "failed");
+  s["reason"] = r.failed.empty() ? "" : r.failed + " exited with code " + std::to_string(r.exit_code);
+  s["levels"] = nlohmann::json::array();
+  double wall = 0.0;
+  size_t finest = 0;
+  for (size_t l = 0; l < cs.levels.size(); ++l) {
+    const auto j = read_json(run_dir / "levels" / cs.levels[l].name / "summary.json");
+    nlohmann::json e = j.contains("levels") && !j["levels"].empty() ? j["levels"][0] : nlohmann::json::object();
+    e["name"] = cs.levels[l].name;
+    e["wall_seconds"] = j.value("wall_seconds", 0.0);
+    e["status"] = j.value("status", "missing");
+    e["mass_balance"] = j.value("mass_balance", nlohmann::json::object());
+    wall = std::max(wall, j.value("wall_seconds", 0.0));
+    s["simulated_time"] = j.value("simulated_time", 0.0);
+    if (cs.levels[l].alpha < cs.levels[finest].alpha) finest = l;
+    s["levels"].push_back(e);
+  }
+  const auto fine = read_json(run_dir / "levels" / cs.levels[finest].name / "summary.json");
+  s["probes"] = fine.value("probes", nlohmann::json::array());
+  s["probes_from_level"] = cs.levels[finest].name;
+  s["wall_seconds"] = wall;
+  io::write_file_atomic(run_dir / "summary.json", s.dump(2) + "\n");
+}
+
+}  // namespace
+
+int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet) {
+  const fs::path run_dir(out_dir);
+  const std::string ep = !cs.coupling->endpoint.empty() ? cs.coupling->endpoint : bus_endpoint(run_dir);
+  const fs::path bin(own_directory());
+  std::printf("mlcg: case %s, %zu levels coupled over %s; run folder %s\n", case_file.c_str(), cs.levels.size(),
+              ep.c_str(), out_dir.c_str());
+  std::vector<NamedChild> children;
+  std::vector<std::string> coupler{(bin / "coupler_service").string(), case_file, "--out", out_dir, "--endpoint", ep};
+  if (quiet) coupler.push_back("--quiet");
+  children.push_back({"coupler", spawn(coupler)});
+  // Progress lines come from the finest level; the others write their logs only.
+  size_t finest = 0;
+  for (size_t l = 0; l < cs.levels.size(); ++l)
+    if (cs.levels[l].alpha < cs.levels[finest].alpha) finest = l;
+  for (size_t l = 0; l < cs.levels.size(); ++l) {
+    const auto& lvl = cs.levels[l];
+    std::vector<std::string> argv;
+    if (lvl.ranks > 1) argv = mpirun_prefix(lvl.ranks);
+    argv.push_back((bin / "dem_level").string());
+    argv.insert(argv.end(), {case_file, "--out", (run_dir / "levels" / lvl.name).string(), "--level", lvl.name,
+                             "--coupler", ep});
+    if (quiet || l != finest) argv.push_back("--quiet");
+    std::printf("mlcg: level '%s' (alpha %g, dt %g s, %d rank(s))\n", lvl.name.c_str(), lvl.alpha,
+                lvl.dt > 0.0 ? lvl.dt : lvl.dt_alpha1 * lvl.alpha, lvl.ranks);
+    children.push_back({"level '" + lvl.name + "'", spawn(argv)});
+  }
+  std::fflush(stdout);
+  const GroupResult r = wait_group(children);
+  write_summary(cs, run_dir, r);
+  const auto s = read_json(run_dir / "summary.json");
+  std::printf("\n== %s: %s ==\n", out_dir.c_str(), s.value("status", "?").c_str());
+  for (const auto& l : s["levels"])
+    std::printf("level %s: alpha %g, up to %d particles, %.1f s wall, %.3g particle-steps/s\n",
+                l.value("name", "?").c_str(), l.value("alpha", 0.0), l.value("particles_max", 0),
+                l.value("wall_seconds", 0.0), l.value("particle_steps_per_second", 0.0));
+  for (const auto& p : s["probes"])
+    std::printf("probe %s (level %s): mass flow %.4f +- %.4f kg/s\n", p.value("name", "?").c_str(),
+                s.value("probes_from_level", "?").c_str(), p.value("mean_kg_per_s", 0.0), p.value("std_kg_per_s", 0.0));
+  if (r.exit_code != 0)
+    std::fprintf(stderr, "mlcg: %s exited with code %d; every other process was stopped\n", r.failed.c_str(),
+                 r.exit_code);
+  return r.exit_code;
+}
+
+}  // namespace mlcg::launcher

@@ -1,0 +1,15 @@
+#pragma once
+// `mlcg run` on a multi-level case: the coupler first, then every level (its
+// own mpirun when it has several ranks), all on one bus endpoint; one run
+// folder with levels/<name>/ per level, coupling/ and coupler.log from the
+// coupler, and a summary.json over the whole hierarchy.
+#include <string>
+
+#include "config/case_spec.hpp"
+
+namespace mlcg::launcher {
+
+// Returns the exit code of the run (0 when every process completed).
+int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet);
+
+}  // namespace mlcg::launcher

@@ -1,0 +1,72 @@
+#pragma once
+// The typed send/receive layer over cppzmq that the coupler, every level and
+// the launcher share. One Envelope per ZeroMQ message; the coupler binds a
+// ROUTER, each level's rank 0 connects a DEALER whose identity is its level
+// name.
+//
+// Contract: receive() never throws on bad input. A frame that is too large,
+// does not parse, carries no body or another protocol version comes back as
+// an Incoming with `error` set (naming the peer and the reason), so the
+// receiver logs it, may answer with Refused, and goes on.
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <zmq.hpp>
+
+#include "mlcg/bus.pb.h"
+
+namespace mlcg::bus {
+
+// Bump on any change of mlcg/bus.proto an older peer would misread.
+inline constexpr uint32_t kProtocolVersion = 2;
+// Messages above this are refused (an insertion list of a few 100k particles fits).
+inline constexpr size_t kDefaultMaxBytes = size_t{64} << 20;
+
+// Serialises `env` with this build's protocol version and sender.
+std::string encode(Envelope env, const std::string& sender);
+
+struct Decoded {
+  Envelope env;
+  std::string error;  // empty when env is valid
+  bool ok() const { return error.empty(); }
+};
+// Parses one frame; refuses oversized, unparsable, empty and other-version messages.
+Decoded decode(const void* data, size_t size, size_t max_bytes = kDefaultMaxBytes);
+
+// Name of the body case, for logs ("stats", "commands", ...).
+const char* body_name(const Envelope& env);
+
+struct Incoming {
+  std::string peer;   // ROUTER: the sender's identity; DEALER: empty
+  Envelope env;
+  std::string error;  // set when the message was refused
+  bool ok() const { return error.empty(); }
+};
+
+class Channel {
+ public:
+  enum class Role { Router, Dealer };
+  // Router: binds `endpoint`. Dealer: connects to it with `identity`.
+  Channel(zmq::context_t& ctx, Role role, const std::string& endpoint, const std::string& identity,
+          size_t max_bytes = kDefaultMaxBytes);
+
+  // Router: `peer` names the destination (throws std::runtime_error if it is not connected).
+  void send(const Envelope& env, const std::string& peer = {});
+  // Waits up to `timeout` for one message; nullopt when none arrived.
+  std::optional<Incoming> receive(std::chrono::milliseconds timeout);
+
+  // The endpoint actually bound (tcp://...:0 resolves to a port).
+  std::string endpoint() const;
+  const std::string& identity() const { return identity_; }
+  zmq::socket_t& socket() { return sock_; }
+
+ private:
+  Role role_;
+  std::string identity_;
+  size_t max_bytes_;
+  zmq::socket_t sock_;
+};
+
+}  // namespace mlcg::bus

@@ -1,0 +1,51 @@
+#pragma once
+// The geometry of one coupling region, as both sides of the bus see it: cubic
+// cells on a box, of which the active ones (clipped to the geometry) take
+// part. Layer k = nz - 1 is the transition layer; each of its active cells has
+// one boundary face, its top face; the active cells below are correction
+// cells. Faces are numbered in the order of the transition cells; per-cell
+// arrays follow `cells` (ascending flat index i + nx (j + ny k)).
+#include <cstdint>
+#include <vector>
+
+#include "core/vec3.hpp"
+#include "mlcg/bus.pb.h"
+
+namespace mlcg::bus {
+
+class CouplingGeometry {
+ public:
+  CouplingGeometry() = default;
+  // Throws std::invalid_argument on an inconsistent grid (sizes, unsorted or out-of-range cells).
+  explicit CouplingGeometry(const CouplingGrid& g);
+
+  const CouplingGrid& grid() const { return g_; }
+  double cell_size() const { return g_.cell_size(); }
+  size_t cells() const { return cells_.size(); }
+  size_t faces() const { return faces_.size(); }
+  uint32_t flat(size_t c) const { return cells_[c]; }
+  bool is_transition(size_t c) const { return face_of_cell_[c] >= 0; }
+  int face_of_cell(size_t c) const { return face_of_cell_[c]; }
+  size_t cell_of_face(size_t f) const { return faces_[f]; }
+
+  Vec3 origin() const { return {g_.ox(), g_.oy(), g_.oz()}; }
+  Vec3 cell_lo(size_t c) const;
+  Vec3 cell_centre(size_t c) const;
+  double top() const { return g_.oz() + g_.nz() * g_.cell_size(); }  // height of the boundary surface
+  Vec3 box_lo() const { return origin(); }
+  Vec3 box_hi() const;
+
+  // Active cell containing x, or -1 (outside the box or in an inactive cell).
+  int locate(const Vec3& x) const;
+  // Boundary face whose column (x, y within the face) contains x, or -1.
+  int face_column(const Vec3& x) const;
+
+ private:
+  CouplingGrid g_;
+  std::vector<uint32_t> cells_;
+  std::vector<int> face_of_cell_;
+  std::vector<size_t> faces_;
+  std::vector<int> lookup_;  // flat index -> active cell or -1
+};
+
+}  // namespace mlcg::bus

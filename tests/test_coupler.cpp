@@ -1,0 +1,285 @@
+// The coupler's logic without sockets: controllers, insertion planner and one
+// interval of Coupler::advance, driven by scripted level statistics.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "coupler.hpp"
+
+using namespace mlcg;
+using namespace mlcg::coupling;
+
+namespace {
+
+// A 3 x 3 x 2 box of 2 cm cells at the origin; every cell active.
+bus::CouplingGrid small_grid(uint32_t coarse = 0, uint32_t fine = 1) {
+  bus::CouplingGrid g;
+  g.set_coarse_level(coarse);
+  g.set_fine_level(fine);
+  g.set_cell_size(0.02);
+  g.set_nx(3);
+  g.set_ny(3);
+  g.set_nz(2);
+  for (uint32_t c = 0; c < 18; ++c) g.add_cells(c);
+  g.set_insert_depth(0.011);
+  g.set_fade_depth(0.0042);
+  g.add_radius_bins(2.8e-3);
+  g.add_radius_bins(2.8e-3);
+  return g;
+}
+
+PlannerParams planner_params() {
+  PlannerParams p;
+  p.ratio = 2.0;
+  p.density = 1000.0;
+  p.insert_depth = 0.011;
+  p.radius_bins = {2.8e-3, 2.8e-3};
+  p.seed = 7;
+  return p;
+}
+
+bool inside_box(const Vec3&, const Vec3& x, double r) {
+  return x.x - r > 0.0 && x.x + r < 0.06 && x.y - r > 0.0 && x.y + r < 0.06;
+}
+
+// Coarse statistics: every face crossed by `mass` kg downward at velocity v.
+void face_flux(bus::GridStats& g, const bus::CouplingGeometry& geo, double mass, const Vec3& v) {
+  for (size_t f = 0; f < geo.faces(); ++f) {
+    const Vec3 c = geo.cell_centre(geo.cell_of_face(f));
+    g.add_face_mass(mass);
+    for (double q : {mass * v.x, mass * v.y, mass * v.z}) g.add_face_momentum(q);
+    for (double q : {mass * c.x, mass * c.y, mass * geo.top()}) g.add_face_moment(q);
+    g.add_face_histogram(static_cast<int64_t>(std::lround(mass / (1000.0 * 4.0 / 3.0 * M_PI * std::pow(2.8e-3, 3)))));
+  }
+}
+
+void cells(bus::GridStats& g, const bus::CouplingGeometry& geo, double szz, double phi, const Vec3& v, double vmax) {
+  for (size_t c = 0; c < geo.cells(); ++c) {
+    for (double s : {0.5 * szz, 0.5 * szz, szz, 0.0, 0.0, 0.0}) g.add_cell_stress(s);
+    g.add_cell_volume_fraction(phi);
+    for (double q : {v.x, v.y, v.z}) g.add_cell_velocity(q);
+    g.add_cell_max_speed(vmax);
+  }
+}
+
+}  // namespace
+
+// Plant for the PI tests: the fine cell's stress follows its own part plus the
+// traction with a lag of a few intervals (the bed's dynamic response).
+struct LagPlant {
+  double own = 40.0, stress = 40.0, lag = 0.2;
+  double respond(double traction) { return stress += lag * (own + traction - stress); }
+};
+
+TEST(PiController, StepOfTenTimesSettlesWithoutGrowingOscillationAndWithinItsLimit) {
+  PiController pi;
+  pi.limit = 5000.0;
+  LagPlant plant;
+  const double dt = 8e-5;
+  double setpoint = 100.0;
+  std::vector<double> err;
+  double peak_stress = 0.0;
+  for (int k = 0; k < 6000; ++k) {
+    if (k == 2000) setpoint = 1000.0;  // a 10x step
+    const double u = pi.update(setpoint, plant.stress, dt);
+    ASSERT_GE(u, 0.0);
+    ASSERT_LE(u, pi.limit);
+    plant.respond(u);
+    if (k >= 2000) {
+      err.push_back(std::fabs(setpoint - plant.stress));
+      peak_stress = std::max(peak_stress, plant.stress);
+    }
+  }
+  // The error envelope (largest error per 100 intervals) never grows after the step.
+  double prev = 1e300;
+  for (size_t w = 0; w + 100 <= err.size(); w += 100) {
+    const double env = *std::max_element(err.begin() + static_cast<long>(w), err.begin() + static_cast<long>(w + 100));
+    EXPECT_LE(env, prev * (1.0 + 1e-9)) << "envelope grew in window " << w / 100;
+    prev = env;
+  }
+  EXPECT_LT(err.back(), 1e-3 * setpoint);
+  EXPECT_LE(peak_stress, 1.05 * setpoint) << "overshoot above 5 %";
+}
+
+TEST(PiController, NoWindupWhileSaturated) {
+  PiController pi;
+  pi.limit = 100.0;
+  const double dt = 8e-5;
+  LagPlant plant;
+  plant.own = 0.0;
+  // Unreachable setpoint for 10,000 intervals: output pinned at the limit.
+  for (int k = 0; k < 10000; ++k) plant.respond(pi.update(1e6, plant.stress, dt));
+  EXPECT_DOUBLE_EQ(pi.output, 100.0);
+  EXPECT_LE(pi.ki * pi.integral, pi.limit) << "the integral wound up";
+  // A reachable setpoint below the current stress: the output drops below the
+  // limit at once instead of unwinding a huge integral, and settles.
+  EXPECT_LT(pi.update(50.0, plant.stress, dt), 100.0);
+  for (int k = 0; k < 4000; ++k) plant.respond(pi.update(50.0, plant.stress, dt));
+  EXPECT_NEAR(plant.stress, 50.0, 0.05);
+}
+
+TEST(VelocityController, PushesTowardTheTargetAndScalesByVolumeFraction) {
+  VelocityController vc;
+  vc.gain = 10.0;
+  vc.limit = 5.0;
+  const Vec3 a = vc.update({0, 0, -0.2}, {0, 0, -0.1});
+  EXPECT_NEAR(a.z, -1.0, 1e-12);
+  const Vec3 big = vc.update({0, 0, -10.0}, {0, 0, 0});
+  EXPECT_NEAR(norm(big), 5.0, 1e-12);
+  // Mass flow: phi_f = 0.6, phi_c = 0.5 -> the coarse level must move 1.2x faster.
+  const Vec3 t = correction_target({0, 0, -0.1}, 0.6, 0.5, true);
+  EXPECT_NEAR(t.z, -0.12, 1e-15);
+  EXPECT_NEAR(correction_target({0, 0, -0.1}, 0.6, 0.5, false).z, -0.1, 1e-15);
+}
+
+TEST(InsertionPlanner, MassIsConservedExactlyPerFaceAndNothingOverlaps) {
+  const bus::CouplingGeometry geo(small_grid());
+  InsertionPlanner planner(geo, planner_params(), inside_box);
+  const double m_coarse = 1000.0 * 4.0 / 3.0 * M_PI * std::pow(2.8e-3, 3);
+  std::vector<Sphere> occupants;
+  std::mt19937_64 rng(3);
+  // Fine particles already in the slab (some), which new ones must avoid.
+  std::uniform_real_distribution<double> u(0.0, 0.06), uz(0.029, 0.039);
+  for (int i = 0; i < 60; ++i) occupants.push_back({{u(rng), u(rng), uz(rng)}, 1.4e-3});
+  std::vector<Sphere> all = occupants;
+  size_t total = 0;
+  for (uint64_t k = 0; k < 40; ++k) {
+    bus::GridStats g;
+    face_flux(g, geo, (k % 3 == 0 ? 1.0 : 0.3) * m_coarse, {0.0, 0.0, -0.5});
+    planner.add_crossings({g.face_mass().begin(), g.face_mass().end()},
+                          {g.face_momentum().begin(), g.face_momentum().end()},
+                          {g.face_moment().begin(), g.face_moment().end()},
+                          {g.face_histogram().begin(), g.face_histogram().end()});
+    const auto ins = planner.plan(k + 1, all);
+    for (const auto& p : ins) {
+      EXPECT_NEAR(p.r, 1.4e-3, 1e-15);
+      EXPECT_LE(p.x.z, geo.top() - p.r + 1e-15);
+      EXPECT_GE(p.x.z, geo.top() - 0.011 + p.r - 1e-15);
+      EXPECT_NEAR(p.v.z, -0.5, 1e-12);
+      for (const auto& q : all) EXPECT_GE(norm(p.x - q.x), p.r + q.r) << "overlap at interval " << k;
+      all.push_back({p.x, p.r});
+    }
+    total += ins.size();
+    // Particles drift down out of the slab between intervals.
+    for (auto& s : all) s.x.z -= 0.004;
+  }
+  EXPECT_GT(total, 100u);
+  for (const auto& f : planner.faces()) {
+    EXPECT_NEAR(f.crossed, f.inserted + f.remainder, 1e-12 * f.crossed);
+    EXPECT_GE(f.remainder, 0.0);
+    EXPECT_LT(f.remainder, planner.mass_of(1.4e-3) * (1.0 + 1e-12)) << "a face kept more than one particle's mass";
+  }
+}
+
+TEST(InsertionPlanner, FullSlabCarriesTheRemainderToLaterIntervals) {
+  const bus::CouplingGeometry geo(small_grid());
+  InsertionPlanner planner(geo, planner_params(), inside_box);
+  const double m_coarse = 1000.0 * 4.0 / 3.0 * M_PI * std::pow(2.8e-3, 3);
+  bus::GridStats g;
+  face_flux(g, geo, 200.0 * m_coarse, {0, 0, -1});  // far more than the slab holds
+  planner.add_crossings({g.face_mass().begin(), g.face_mass().end()},
+                        {g.face_momentum().begin(), g.face_momentum().end()},
+                        {g.face_moment().begin(), g.face_moment().end()},
+                        {g.face_histogram().begin(), g.face_histogram().end()});
+  const auto first = planner.plan(1, {});
+  std::vector<Sphere> occ;
+  for (const auto& p : first) occ.push_back({p.x, p.r});
+  for (const auto& f : planner.faces()) {
+    EXPECT_GT(f.remainder, 100.0 * m_coarse) << "the slab cannot hold 1600 fine particles";
+    EXPECT_EQ(f.short_intervals, 1u);
+    EXPECT_NEAR(f.crossed, f.inserted + f.remainder, 1e-12 * f.crossed);
+  }
+  // The slab is full: the next interval places (almost) nothing and keeps the mass.
+  const auto second = planner.plan(2, occ);
+  EXPECT_LT(second.size(), first.size() / 4);
+}
+
+TEST(InsertionPlanner, SameSeedSamePlanOtherSeedAnotherPlan) {
+  const bus::CouplingGeometry geo(small_grid());
+  auto run = [&](uint64_t seed) {
+    auto prm = planner_params();
+    prm.seed = seed;
+    InsertionPlanner planner(geo, prm, inside_box);
+    bus::GridStats g;
+    face_flux(g, geo, 3e-4, {0.1, 0, -1});
+    planner.add_crossings({g.face_mass().begin(), g.face_mass().end()},
+                          {g.face_momentum().begin(), g.face_momentum().end()},
+                          {g.face_moment().begin(), g.face_moment().end()},
+                          {g.face_histogram().begin(), g.face_histogram().end()});
+    return planner.plan(5, {});
+  };
+  const auto a = run(11), b = run(11), c = run(12);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_FALSE(a.empty());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_TRUE(a[i].x == b[i].x);
+  EXPECT_FALSE(a[0].x == c[0].x);
+}
+
+TEST(Coupler, OneIntervalGivesInsertionTractionAndCorrection) {
+  CouplerConfig cfg;
+  cfg.levels = {{"coarse", 2.0, 1e-5, 1}, {"fine", 1.0, 5e-6, 1}};
+  cfg.interval = 8e-5;
+  RegionConfig rc;
+  rc.grid = small_grid();
+  rc.planner = planner_params();
+  rc.velocity.gain = 10.0;
+  cfg.regions.push_back(rc);
+  Coupler coupler(cfg, inside_box);
+  const auto& geo = coupler.geometry(0);
+  ASSERT_EQ(geo.faces(), 9u);
+  ASSERT_EQ(geo.cells(), 18u);
+
+  std::vector<bus::IntervalStats> st(2);
+  for (auto& s : st) s.set_interval(0);
+  auto* cg = st[0].add_grids();
+  face_flux(*cg, geo, 2e-4, {0, 0, -0.3});
+  cells(*cg, geo, 300.0, 0.5, {0, 0, -0.10}, 0.4);
+  auto* fg = st[1].add_grids();
+  cells(*fg, geo, 200.0, 0.6, {0, 0, -0.12}, 0.3);
+  const auto cmds = coupler.advance(0, st);
+  ASSERT_EQ(cmds.size(), 2u);
+  EXPECT_EQ(cmds[0].interval(), 1u);
+  const auto& fine = cmds[1].grids(0);
+  EXPECT_EQ(fine.traction_size(), 9);
+  EXPECT_EQ(fine.speed_limit_size(), 9);
+  EXPECT_GT(fine.insert_size(), 0);
+  EXPECT_EQ(fine.insert_size() % 7, 0);
+  // The fine stress is below the coarse setpoint: positive traction (push down), 0.4 m/s limit.
+  for (int f = 0; f < 9; ++f) {
+    EXPECT_NEAR(fine.traction(f), 0.5 * 100.0 + 50.0 * 100.0 * 8e-5, 1e-9);
+    EXPECT_DOUBLE_EQ(fine.speed_limit(f), 0.4);
+  }
+  // Coarse correction cells (the lower layer only): mass flow target 1.2 x -0.12 = -0.144 m/s.
+  const auto& coarse = cmds[0].grids(0);
+  ASSERT_EQ(coarse.acceleration_size(), 3 * 18);
+  for (size_t c = 0; c < 18; ++c) {
+    const double az = coarse.acceleration(static_cast<int>(3 * c + 2));
+    if (geo.is_transition(c)) EXPECT_EQ(az, 0.0);
+    else EXPECT_NEAR(az, 10.0 * (-0.144 + 0.10), 1e-12);
+  }
+  // A malformed statistic names the level and the field.
+  st[1].mutable_grids(0)->add_cell_volume_fraction(0.1);
+  try {
+    coupler.advance(1, st);
+    FAIL() << "expected an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("interval"), std::string::npos) << e.what();
+  }
+  for (auto& s : st) s.set_interval(1);
+  try {
+    coupler.advance(1, st);
+    FAIL() << "expected an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'fine'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cell_volume_fraction"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Coupler, RefusesALevelWhoseDtDoesNotDivideTheInterval) {
+  CouplerConfig cfg;
+  cfg.levels = {{"coarse", 2.0, 1e-5, 1}, {"fine", 1.0, 5e-6, 1}};
+  cfg.interval = 7.5e-5;
+  EXPECT_THROW(Coupler(cfg, inside_box), std::invalid_argument);
+}

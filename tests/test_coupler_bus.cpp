@@ -1,0 +1,322 @@
+// The coupler service over a real ZeroMQ socket, driven by scripted levels
+// (threads speaking the protocol, no DEM): registration, the interval loop,
+// refusal of bad messages, timeouts, determinism and a three-level hierarchy.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include <spdlog/sinks/null_sink.h>
+#include <spdlog/spdlog.h>
+
+#include "bus/channel.hpp"
+#include "service.hpp"
+
+using namespace mlcg;
+using namespace mlcg::coupling;
+namespace fs = std::filesystem;
+using std::chrono::milliseconds;
+
+namespace {
+
+constexpr double kR = 1.4e-3;  // fine radius; coarse radii are alpha times it
+
+std::string endpoint() {
+  static std::atomic<int> n{0};
+  return "ipc:///tmp/mlcg_cpl_" + std::to_string(getpid()) + "_" + std::to_string(n++) + ".ipc";
+}
+
+bus::CouplingGrid grid(uint32_t coarse, uint32_t fine, double ratio_coarse_radius, double z0) {
+  bus::CouplingGrid g;
+  g.set_coarse_level(coarse);
+  g.set_fine_level(fine);
+  g.set_oz(z0);
+  g.set_cell_size(0.02);
+  g.set_nx(2);
+  g.set_ny(2);
+  g.set_nz(2);
+  for (uint32_t c = 0; c < 8; ++c) g.add_cells(c);
+  g.set_insert_depth(0.012);
+  g.set_fade_depth(0.004);
+  g.add_radius_bins(ratio_coarse_radius);
+  g.add_radius_bins(ratio_coarse_radius);
+  return g;
+}
+
+// levels: alphas, coarsest first; region l couples level l (coarse) over l + 1.
+CouplerConfig config(const std::vector<double>& alphas) {
+  CouplerConfig cfg;
+  for (size_t l = 0; l < alphas.size(); ++l)
+    cfg.levels.push_back({"L" + std::to_string(l), alphas[l], 1e-5 * alphas[l] / alphas.back(), 1});
+  cfg.interval = 8e-5 * alphas.front() / alphas.back();
+  cfg.heartbeat = 0.05;
+  cfg.timeout = 2.0;
+  cfg.seed = 99;
+  for (size_t l = 0; l + 1 < alphas.size(); ++l) {
+    RegionConfig rc;
+    rc.grid = grid(static_cast<uint32_t>(l), static_cast<uint32_t>(l + 1), kR * alphas[l], 0.05 * l);
+    rc.planner.ratio = alphas[l] / alphas[l + 1];
+    rc.planner.radius_bins = {kR * alphas[l], kR * alphas[l]};
+    rc.planner.insert_depth = 0.012;
+    rc.planner.seed = 5 + l;
+    cfg.regions.push_back(rc);
+  }
+  return cfg;
+}
+
+bool fits(const Vec3&, const Vec3& x, double r) {
+  return x.x - r > 0.0 && x.x + r < 0.04 && x.y - r > 0.0 && x.y + r < 0.04;
+}
+
+struct LevelResult {
+  std::string error;           // set when the level was refused or told to stop
+  uint64_t intervals = 0;      // commands received
+  size_t inserted = 0;         // particles the coupler asked this level to insert
+  double traction_sum = 0.0;
+};
+
+// A level without DEM: registers, then answers commands(k) with stats(k). As
+// a coarse level it reports a steady downward flux through every face; as a
+// fine level the particles it was told to insert, sinking 3 mm per interval.
+LevelResult scripted_level(const std::string& ep, const CouplerConfig& cfg, size_t me, const std::string& hash,
+                           uint64_t intervals, uint64_t go_silent_after = UINT64_MAX) {
+  LevelResult res;
+  zmq::context_t ctx;
+  bus::Channel ch(ctx, bus::Channel::Role::Dealer, ep, cfg.levels[me].name);
+  bus::Envelope reg;
+  auto* r = reg.mutable_register_level();
+  r->set_level_name(cfg.levels[me].name);
+  r->set_alpha(cfg.levels[me].alpha);
+  r->set_dt(cfg.levels[me].dt);
+  r->set_ranks(1);
+  r->set_case_hash(hash);
+  ch.send(reg);
+  auto in = ch.receive(milliseconds(5000));
+  if (!in || !in->env.has_welcome()) {
+    res.error = in && in->env.has_refused() ? in->env.refused().reason() : "no welcome";
+    return res;
+  }
+  const bus::Welcome w = in->env.welcome();
+  std::vector<bus::CouplingGeometry> geo;
+  for (const auto& g : w.grids()) geo.emplace_back(g);
+  std::vector<std::vector<Vec3>> mine(geo.size());  // fine particles per region (this level as fine)
+  for (uint64_t k = 0; k < intervals; ++k) {
+    auto c = ch.receive(milliseconds(5000));
+    if (!c) { res.error = "no commands"; return res; }
+    if (c->env.has_bye()) { res.error = c->env.bye().reason(); return res; }
+    if (!c->env.has_commands()) { res.error = std::string("unexpected ") + bus::body_name(c->env); return res; }
+    const auto& cmd = c->env.commands();
+    EXPECT_EQ(cmd.interval(), k);
+    ++res.intervals;
+    for (const auto& gc : cmd.grids()) {
+      res.inserted += static_cast<size_t>(gc.insert_size() / 7);
+      for (int i = 0; i + 6 < gc.insert_size(); i += 7)
+        mine[gc.grid()].push_back({gc.insert(i), gc.insert(i + 1), gc.insert(i + 2)});
+      for (double t : gc.traction()) res.traction_sum += t;
+    }
+    if (k >= go_silent_after) {
+      std::this_thread::sleep_for(milliseconds(static_cast<int>(cfg.timeout * 2000)));
+      return res;
+    }
+    bus::Envelope out;
+    auto* st = out.mutable_stats();
+    st->set_interval(k);
+    for (size_t g = 0; g < geo.size(); ++g) {
+      const bool coarse = w.grids(static_cast<int>(g)).coarse_level() == me;
+      const bool fine = w.grids(static_cast<int>(g)).fine_level() == me;
+      if (!coarse && !fine) continue;
+      auto* gs = st->add_grids();
+      gs->set_grid(static_cast<uint32_t>(g));
+      const double stress = coarse ? 300.0 : 100.0 + 0.5 * res.traction_sum / (k + 1);
+      for (size_t cell = 0; cell < geo[g].cells(); ++cell) {
+        for (double s : {stress, stress, stress, 0.0, 0.0, 0.0}) gs->add_cell_stress(s);
+        gs->add_cell_volume_fraction(0.55);
+        for (double v : {0.0, 0.0, -0.1}) gs->add_cell_velocity(v);
+        gs->add_cell_max_speed(0.5);
+      }
+      if (coarse) {
+        const double rc = cfg.levels[me].alpha * kR, m = 1000.0 * 4.0 / 3.0 * M_PI * rc * rc * rc;
+        for (size_t f = 0; f < geo[g].faces(); ++f) {
+          const double mf = (k % 4 == 0) ? m : 0.0;  // one coarse particle per face every 4th interval
+          const Vec3 x = geo[g].cell_centre(geo[g].cell_of_face(f));
+          gs->add_face_mass(mf);
+          for (double q : {0.0, 0.0, -0.3 * mf}) gs->add_face_momentum(q);
+          for (double q : {mf * x.x, mf * x.y, mf * geo[g].top()}) gs->add_face_moment(q);
+          gs->add_face_histogram(mf > 0.0 ? 1 : 0);
+        }
+      }
+      if (fine) {
+        for (auto& x : mine[g]) {
+          x.z -= 0.003;
+          for (double q : {x.x, x.y, x.z, kR * cfg.levels[me].alpha}) gs->add_occupants(q);
+        }
+      }
+    }
+    ch.send(out);
+  }
+  bus::Envelope bye;
+  bye.mutable_bye()->set_reason("end time reached");
+  ch.send(bye);
+  return res;
+}
+
+struct RunResult {
+  int code = -1;
+  std::string error;
+  uint64_t refused = 0;
+  std::vector<LevelResult> levels;
+  std::string csv;
+  double crossed = 0.0, inserted = 0.0, remainder = 0.0;
+};
+
+RunResult run_hierarchy(const std::vector<double>& alphas, uint64_t intervals, const fs::path& out,
+                  std::function<void(const std::string&)> intruder = {}, size_t silent_level = SIZE_MAX) {
+  const CouplerConfig cfg = config(alphas);
+  Coupler coupler(cfg, fits);
+  const std::string ep = endpoint();
+  zmq::context_t ctx;
+  bus::Channel ch(ctx, bus::Channel::Role::Router, ep, {}, 4096 * 16);
+  ServiceOptions opt;
+  opt.case_hash = "c0ffee";
+  opt.out_dir = out;
+  Service service(coupler, ch, opt, std::make_shared<spdlog::logger>("t", std::make_shared<spdlog::sinks::null_sink_mt>()));
+  RunResult run;
+  run.levels.resize(alphas.size());
+  std::vector<std::thread> threads;
+  for (size_t l = 0; l < alphas.size(); ++l)
+    threads.emplace_back([&, l] {
+      run.levels[l] = scripted_level(ep, cfg, l, "c0ffee", intervals, l == silent_level ? 3 : UINT64_MAX);
+    });
+  if (intruder) threads.emplace_back([&] { intruder(ep); });
+  run.code = service.run();
+  run.error = service.error();
+  for (auto& t : threads) t.join();
+  threads.clear();
+  for (size_t l = 0; l < run.levels.size(); ++l)
+    if (!run.levels[l].error.empty()) run.error += "; level L" + std::to_string(l) + ": " + run.levels[l].error;
+  run.refused = service.refused();
+  for (auto& t : threads) t.join();
+  std::ifstream f(out / "coupling" / "region0.csv");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  run.csv = ss.str();
+  for (const auto& fs : coupler.planner(0).faces()) {
+    run.crossed += fs.crossed;
+    run.inserted += fs.inserted;
+    run.remainder += fs.remainder;
+  }
+  return run;
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("mlcg_cpl_" + std::to_string(getpid())) / name;
+  fs::remove_all(p);
+  return p;
+}
+
+}  // namespace
+
+TEST(CouplerService, TwoScriptedLevelsRunToTheEndWithExactMass) {
+  const RunResult run = run_hierarchy({2.0, 1.0}, 60, scratch("two"));
+  ASSERT_EQ(run.code, 0) << run.error;
+  EXPECT_EQ(run.levels[0].intervals, 60u);
+  EXPECT_EQ(run.levels[1].intervals, 60u);
+  EXPECT_TRUE(run.levels[0].error.empty());
+  // 4 faces x 15 coarse particles of 8 fine ones each, minus what is still carried.
+  EXPECT_GT(run.levels[1].inserted, 300u);
+  EXPECT_EQ(run.levels[0].inserted, 0u);
+  EXPECT_NEAR(run.crossed, run.inserted + run.remainder, 1e-12 * run.crossed);
+  const double m_fine = 1000.0 * 4.0 / 3.0 * M_PI * kR * kR * kR;
+  EXPECT_NEAR(run.inserted, m_fine * static_cast<double>(run.levels[1].inserted), 1e-12 * run.inserted);
+  EXPECT_GT(run.levels[1].traction_sum, 0.0) << "the fine stress is below the coarse one: the PI must push";
+  // One log row per interval the coupler computed (59: the last stats end the run).
+  EXPECT_EQ(std::count(run.csv.begin(), run.csv.end(), '\n'), 1 + 60);
+}
+
+TEST(CouplerService, SameSeedGivesIdenticalCouplerLogs) {
+  const RunResult a = run_hierarchy({2.0, 1.0}, 40, scratch("det_a"));
+  const RunResult b = run_hierarchy({2.0, 1.0}, 40, scratch("det_b"));
+  ASSERT_EQ(a.code, 0) << a.error;
+  ASSERT_EQ(b.code, 0) << b.error;
+  EXPECT_GT(a.csv.size(), 1000u);
+  EXPECT_EQ(a.csv, b.csv);
+}
+
+TEST(CouplerService, MalformedOversizedAndWrongVersionMessagesAreRefusedAndTheRunGoesOn) {
+  std::vector<std::string> answers;
+  auto intruder = [&](const std::string& ep) {
+    zmq::context_t ctx;
+    zmq::socket_t s(ctx, zmq::socket_type::dealer);
+    s.set(zmq::sockopt::routing_id, "intruder");
+    s.set(zmq::sockopt::linger, 0);
+    s.connect(ep);
+    bus::Envelope old;
+    old.set_protocol(bus::kProtocolVersion - 1);
+    old.mutable_heartbeat()->set_step(1);
+    bus::Envelope empty;
+    empty.set_protocol(bus::kProtocolVersion);
+    const std::vector<std::string> frames = {std::string("\xff\xff\xff garbage", 12), std::string(200000, 'x'),
+                                             old.SerializeAsString(), empty.SerializeAsString()};
+    for (const auto& f : frames) {
+      s.send(zmq::buffer(f), zmq::send_flags::none);
+      zmq::message_t m;
+      zmq::pollitem_t item{s.handle(), 0, ZMQ_POLLIN, 0};
+      if (zmq::poll(&item, 1, milliseconds(3000)) > 0 && s.recv(m)) {
+        const auto d = bus::decode(m.data(), m.size());
+        answers.push_back(d.ok() && d.env.has_refused() ? d.env.refused().reason() : "?");
+      }
+    }
+  };
+  const RunResult run = run_hierarchy({2.0, 1.0}, 30, scratch("bad"), intruder);
+  ASSERT_EQ(run.code, 0) << run.error;
+  EXPECT_EQ(run.refused, 4u);
+  ASSERT_EQ(answers.size(), 4u);
+  EXPECT_NE(answers[0].find("not a valid"), std::string::npos) << answers[0];
+  EXPECT_NE(answers[1].find("exceeds the limit"), std::string::npos) << answers[1];
+  EXPECT_NE(answers[2].find("protocol version " + std::to_string(bus::kProtocolVersion - 1)), std::string::npos)
+      << answers[2];
+  EXPECT_NE(answers[3].find("no body"), std::string::npos) << answers[3];
+}
+
+TEST(CouplerService, ALevelOfAnotherCaseIsRefusedAndTheMissingLevelNamed) {
+  const CouplerConfig cfg = config({2.0, 1.0});
+  Coupler coupler(cfg, fits);
+  const std::string ep = endpoint();
+  zmq::context_t ctx;
+  bus::Channel ch(ctx, bus::Channel::Role::Router, ep, {});
+  ServiceOptions opt;
+  opt.case_hash = "c0ffee";
+  Service service(coupler, ch, opt, std::make_shared<spdlog::logger>("t", std::make_shared<spdlog::sinks::null_sink_mt>()));
+  LevelResult coarse, fine;
+  std::thread a([&] { coarse = scripted_level(ep, cfg, 0, "c0ffee", 1); });
+  std::thread b([&] { fine = scripted_level(ep, cfg, 1, "deadbeef", 1); });
+  EXPECT_EQ(service.run(), 2);
+  a.join();
+  b.join();
+  EXPECT_NE(fine.error.find("another case"), std::string::npos) << fine.error;
+  EXPECT_NE(service.error().find("'L1'"), std::string::npos) << service.error();
+  EXPECT_NE(service.error().find("did not register"), std::string::npos) << service.error();
+}
+
+TEST(CouplerService, ASilentLevelIsNamedAndTheOthersAreStopped) {
+  const RunResult run = run_hierarchy({2.0, 1.0}, 20, scratch("silent"), {}, 1);
+  EXPECT_EQ(run.code, 2);
+  EXPECT_NE(run.error.find("level 'L1' silent"), std::string::npos) << run.error;
+  EXPECT_NE(run.levels[0].error.find("L1"), std::string::npos) << "the coarse level must be told: "
+                                                                << run.levels[0].error;
+}
+
+TEST(CouplerService, ThreeLevelsCoupleThroughTheMiddleOne) {
+  const RunResult run = run_hierarchy({4.0, 2.0, 1.0}, 40, scratch("three"));
+  ASSERT_EQ(run.code, 0) << run.error;
+  EXPECT_EQ(run.levels[0].inserted, 0u);
+  EXPECT_GT(run.levels[1].inserted, 0u) << "the middle level is fine in region 0";
+  EXPECT_GT(run.levels[2].inserted, 0u) << "and coarse in region 1, whose fine level gets particles";
+  EXPECT_NEAR(run.crossed, run.inserted + run.remainder, 1e-12 * run.crossed);
+}
