@@ -105,7 +105,7 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
                                   "(check min/max, or give `inside` = a point inside the walls)");
     for (uint32_t c : cells) gr.add_cells(c);
     const double d_coarse = 2.0 * r_max * ac, d_fine = 2.0 * r_max * af;
-    gr.set_insert_depth(rs.insert_depth > 0.0 ? rs.insert_depth : std::min(4.0 * d_coarse, h));
+    gr.set_insert_depth(rs.insert_depth > 0.0 ? rs.insert_depth : std::min(2.0 * d_coarse, h));
     gr.set_fade_depth(rs.fade * d_fine);
     const int bins = r_min == r_max ? 1 : rs.radius_bins;
     for (int b = 0; b <= bins; ++b) gr.add_radius_bins(ac * (r_min + (r_max - r_min) * b / bins));

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include "io/atomic_file.hpp"
@@ -147,6 +148,41 @@ void Service::send_commands(std::vector<bus::IntervalCommands> cmds) {
   }
 }
 
+void Service::write_final(const std::string& status) const {
+  if (opt_.out_dir.empty()) return;
+  nlohmann::json j;
+  j["status"] = status;
+  j["error"] = error_;
+  j["intervals"] = k_;
+  j["interval_s"] = coupler_.config().interval;
+  j["coupler_busy_seconds"] = busy_;
+  j["refused_messages"] = refused_;
+  j["regions"] = nlohmann::json::array();
+  for (size_t r = 0; r < coupler_.config().regions.size(); ++r) {
+    const auto& geo = coupler_.geometry(r);
+    std::string csv = "face,x,y,crossed_kg,inserted_kg,remainder_kg,placed,short_intervals\n";
+    double crossed = 0.0, inserted = 0.0, remainder = 0.0, worst = 0.0;
+    uint64_t placed = 0;
+    const auto& faces = coupler_.planner(r).faces();
+    for (size_t f = 0; f < faces.size(); ++f) {
+      const auto& s = faces[f];
+      const Vec3 c = geo.cell_centre(geo.cell_of_face(f));
+      csv += fmt::format("{},{:.6g},{:.6g},{:.17g},{:.17g},{:.17g},{},{}\n", f, c.x, c.y, s.crossed, s.inserted,
+                         s.remainder, s.placed, s.short_intervals);
+      crossed += s.crossed;
+      inserted += s.inserted;
+      remainder += s.remainder;
+      placed += s.placed;
+      if (s.crossed != 0.0) worst = std::max(worst, std::fabs(s.crossed - s.inserted - s.remainder) / std::fabs(s.crossed));
+    }
+    io::write_file_atomic(opt_.out_dir / "coupling" / fmt::format("faces_region{}.csv", r), csv);
+    j["regions"].push_back({{"cells", geo.cells()}, {"faces", geo.faces()}, {"top", geo.top()},
+                            {"crossed_kg", crossed}, {"inserted_kg", inserted}, {"remainder_kg", remainder},
+                            {"inserted_particles", placed}, {"worst_face_mass_error", worst}});
+  }
+  io::write_file_atomic(opt_.out_dir / "coupling" / "summary.json", j.dump(2) + "\n");
+}
+
 void Service::write_logs() {
   const double t = static_cast<double>(k_ + 1) * coupler_.config().interval;
   for (size_t r = 0; r < csv_.size(); ++r) {
@@ -171,6 +207,16 @@ void Service::write_logs() {
 }
 
 int Service::run() {
+  const int code = loop();
+  try {
+    write_final(code == 0 ? "completed" : "failed");
+  } catch (const std::exception& e) {
+    log_->error("cannot write the coupling summary: {}", e.what());
+  }
+  return code;
+}
+
+int Service::loop() {
   const auto& cfg = coupler_.config();
   const double t0 = now();
   const auto poll = std::chrono::milliseconds(std::max<int64_t>(1, static_cast<int64_t>(cfg.heartbeat * 250.0)));
@@ -196,8 +242,10 @@ int Service::run() {
       std::vector<bus::IntervalStats> stats;
       for (auto& p : peers_) stats.push_back(std::move(p.stats));
       try {
+        const double b0 = now();
         auto cmds = coupler_.advance(k_, stats);
         write_logs();
+        busy_ += now() - b0;
         ++k_;
         for (auto& p : peers_) p.has_stats = false;
         send_commands(std::move(cmds));
@@ -208,7 +256,8 @@ int Service::run() {
       continue;
     }
     if (all(&Peer::finished)) {
-      log_->info("all levels finished after {} intervals; {} message(s) refused", k_, refused_);
+      log_->info("all levels finished after {} intervals; {} message(s) refused; coupler busy {:.2f} s", k_,
+                 refused_, busy_);
       for (auto& f : csv_) f.flush();
       return 0;
     }

@@ -47,12 +47,15 @@ class Service {
     double last_seen = 0.0;
     bus::IntervalStats stats;
   };
+  int loop();
   void handle(const bus::Incoming& in);
   void on_register(const bus::Incoming& in);
   void refuse(const std::string& peer, const std::string& why);
   void fail(const std::string& why);
   void send_commands(std::vector<bus::IntervalCommands> cmds);
   void write_logs();
+  // Per-face totals and a summary (coupling/faces_region<r>.csv, coupling/summary.json), atomically.
+  void write_final(const std::string& status) const;
   bool all(bool Peer::*flag) const;
   std::string names(const std::function<bool(const Peer&)>& pick) const;  // 'a', 'b'
 
@@ -63,6 +66,7 @@ class Service {
   std::vector<Peer> peers_;
   uint64_t k_ = 0;          // interval the levels are running
   uint64_t refused_ = 0;
+  double busy_ = 0.0;       // wall seconds spent computing commands and logs
   bool started_ = false;
   std::string error_;
   std::vector<std::ofstream> csv_;

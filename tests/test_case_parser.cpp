@@ -678,6 +678,9 @@ const std::string& two_levels() {
   static const std::string text = [] {
     std::string t = base();
     t.replace(t.find("[domain]"), 8, "[[levels]]\nname = \"coarse\"\nalpha = 2\ndt = 2e-6\n\n[domain]");
+    // Levels share event times: the fixture's settling condition becomes a fixed time.
+    const std::string cond = "after_insertion = true\nmean_speed_below = 0.01\nlatest = 3.0\n";
+    t.replace(t.find(cond), cond.size(), "at = 1.5\n");
     t += "\n[coupling]\nheartbeat = 0.5\n\n[[coupling.regions]]\ncoarse = \"coarse\"\nfine = \"fine\"\n"
          "min = [-0.05, -0.05, -0.1]\nmax = [0.05, 0.05, 0.1]\n";
     return t;
@@ -825,6 +828,11 @@ TEST(CaseParserErrors, CouplingWithOneLevel) {
 TEST(CaseParserErrors, CouplingUnknownKeyInRegion) {
   expect_error_in(two_levels(), Edit{"max = [0.05, 0.05, 0.1]\n", "max = [0.05, 0.05, 0.1]\nkpp = 1\n", "kpp"},
                   "coupling.regions[0].kpp", "unknown key (did you mean 'kp'?); allowed keys: coarse, fine, min");
+}
+
+TEST(CaseParserErrors, CouplingRefusesConditionalEvents) {
+  expect_error_in(two_levels(), Edit{"at = 1.5\n", "mean_speed_below = 0.02\n", "mean_speed_below"},
+                  "events[0].mean_speed_below", "different time on each level of a multi-level case; give at");
 }
 
 TEST(CaseParserErrors, CouplingUnknownKeyInSection) {

@@ -290,6 +290,10 @@ void read_events(const Table& root, CaseSpec& spec, Names& names) {
                    "mean_speed_below = <m/s>");
     if (at && condition)
       t.fail("at", "both at and a condition (after_insertion / mean_speed_below) given; give one of them");
+    if (condition && spec.coupling)
+      t.fail(speed ? "mean_speed_below" : "after_insertion",
+             "a condition would fire at a different time on each level of a multi-level case; give at = <s> "
+             "(e.g. the time the condition fired in a single-level run)");
     if (at) {
       t.non_negative("at", *at, "s");
       e.at = *at;

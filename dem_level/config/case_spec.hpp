@@ -197,7 +197,7 @@ struct CouplingRegionSpec {        // [[coupling.regions]] one fine region insid
   double cell_size = 0.02;         // cell_size [m] > 0: cubic coupling cells (paper: 2 cm)
   std::optional<Vec3> inside;      // inside: a point inside the geometry; default: centre of the box's top face
   double insert_depth = 0.0;       // insert_depth [m] >= 0: slab below the boundary surface where fine particles
-                                   //   are inserted; 0 = automatic (4 coarse diameters, at most one cell)
+                                   //   are inserted; 0 = automatic (2 coarse diameters, at most one cell)
   double fade = 1.5;               // fade > 0 [fine diameters]: the PI traction fades out over this depth
   double kp = 0.5;                 // kp >= 0: PI proportional gain [Pa traction per Pa stress error]
   double ki = 50.0;                // ki >= 0 [1/s]: PI integral gain

@@ -61,7 +61,11 @@ struct PhaseTimes {
   double measure = 0.0;    // probes, cell grids, event conditions
   double insert = 0.0;     // insertion batches
   double output = 0.0;     // series, snapshots, checkpoints
-  double total() const { return integrate + neighbor + force + comm + measure + insert + output; }
+  double coupling = 0.0;   // multi-level work: face crossings, cell samples, controller forces, statistics, insertion
+  double coupling_wait = 0.0;  // blocked on the coupler's commands (the other levels' pace included)
+  double total() const {
+    return integrate + neighbor + force + comm + measure + insert + output + coupling + coupling_wait;
+  }
 };
 
 enum class RunStatus { Completed, StepLimit, Interrupted, Failed };
@@ -111,6 +115,13 @@ class Level {
   void write_checkpoint(const std::filesystem::path& path) const;
   void interrupt() { interrupted_ = true; }
   bool coupled() const { return coupled_ != nullptr; }
+  // Collective. Intervals run, particles received from the coupler, and the largest overlap of
+  // one of them with the particles of its rank at insertion, as a share of its diameter.
+  struct CouplingReport {
+    uint64_t intervals = 0, inserted = 0;
+    double worst_insert_overlap = 0.0;
+  };
+  CouplingReport coupling_report() const;
 
  private:
   struct EventState {

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <numbers>
+#include <unordered_map>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -48,7 +49,41 @@ struct Level::Coupled {
   double wall0 = 0.0;
   int material = 0;           // of inserted particles
   double density = 0.0;
+  uint64_t inserted = 0;      // particles received from the coupler (all ranks)
+  double worst_overlap = 0.0; // largest overlap of an inserted particle / its diameter, on the inserting rank
 };
+
+namespace {
+
+// Largest overlap / diameter of particles [first, n) with each other and with
+// every other local particle: one pass over the particles, new ones hashed.
+double insert_overlap(const Particles& p, size_t first, double reach) {
+  const size_t n = p.n_local();
+  if (first >= n) return 0.0;
+  const double inv = 1.0 / reach;
+  const auto key = [inv](const Vec3& x, int dx, int dy, int dz) {
+    const auto c = [inv](double v, int d) { return static_cast<uint64_t>(static_cast<int64_t>(std::floor(v * inv)) + d) & 0x1fffff; };
+    return (c(x.x, dx) << 42) | (c(x.y, dy) << 21) | c(x.z, dz);
+  };
+  std::unordered_map<uint64_t, std::vector<size_t>> fresh;
+  for (size_t i = first; i < n; ++i) fresh[key(p.x[i], 0, 0, 0)].push_back(i);
+  double worst = 0.0;
+  for (size_t j = 0; j < n; ++j)
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto it = fresh.find(key(p.x[j], dx, dy, dz));
+          if (it == fresh.end()) continue;
+          for (size_t i : it->second) {
+            if (i == j) continue;
+            const double ov = p.radius[i] + p.radius[j] - norm(p.x[i] - p.x[j]);
+            worst = std::max(worst, ov / (2.0 * p.radius[i]));
+          }
+        }
+  return worst;
+}
+
+}  // namespace
 
 void Level::CoupledDeleter::operator()(Coupled* c) const { delete c; }
 
@@ -125,7 +160,7 @@ void Level::coupling_begin_step() {
   c.wall0 = wall_now();
   bus::IntervalCommands cmd;
   {
-    PhaseTimer t(times_.comm);
+    PhaseTimer t(times_.coupling_wait);
     try {
       cmd = c.client->commands(c.k, time(), step_);
     } catch (const coupling::CouplingError& e) {
@@ -142,7 +177,7 @@ void Level::coupling_begin_step() {
                                      g.grid(), lvl_.name));
     of[static_cast<size_t>(it - c.grids.begin())] = &g;
   }
-  PhaseTimer t(times_.insert);
+  PhaseTimer t(times_.coupling);
   for (size_t l = 0; l < c.grids.size(); ++l) {
     uint64_t count = 0;
     double mass = 0.0;
@@ -155,6 +190,7 @@ void Level::coupling_begin_step() {
         throw CouplingStop(e.what());
       }
       detach_ghosts();
+      const size_t first_new = p_.n_local();
       double r_big = 0.0;
       for (const auto& pi : list) {
         mass += pi.density * 4.0 / 3.0 * std::numbers::pi * pi.radius * pi.radius * pi.radius;
@@ -162,6 +198,8 @@ void Level::coupling_begin_step() {
         if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
       }
       count = list.size();
+      c.inserted += count;
+      c.worst_overlap = std::max(c.worst_overlap, insert_overlap(p_, first_new, 2.0 * std::max(r_max_, r_big)));
       next_id_ += static_cast<int64_t>(count);
       explicit_count_ += static_cast<int64_t>(count);  // requested and inserted, like the case's own particles
       explicit_mass_ += mass;
@@ -186,7 +224,7 @@ void Level::coupling_begin_step() {
 }
 
 void Level::coupling_after_drift() {
-  PhaseTimer t(times_.measure);
+  PhaseTimer t(times_.coupling);
   for (auto& g : coupled_->grids) g.after_drift(p_);
 }
 
@@ -197,6 +235,7 @@ bool Level::coupling_wants_stress() const {
 }
 
 void Level::coupling_forces() {
+  PhaseTimer t(times_.coupling);
   for (const auto& g : coupled_->grids) g.add_forces(p_);
 }
 
@@ -215,12 +254,21 @@ void Level::coupling_refresh() {
 
 bool Level::coupling_finished() const { return coupled_->finished; }
 
+Level::CouplingReport Level::coupling_report() const {
+  CouplingReport r;
+  if (!coupled_) return r;
+  r.intervals = coupled_->k;
+  r.inserted = coupled_->inserted;
+  r.worst_insert_overlap = comm_.max(coupled_->worst_overlap);
+  return r;
+}
+
 void Level::coupling_end_step() {
   Coupled& c = *coupled_;
   const bool sample = coupling_wants_stress();
   ++c.done;
   if (sample) {
-    PhaseTimer t(times_.measure);
+    PhaseTimer t(times_.coupling);
     for (auto& g : c.grids) g.sample(p_, stress6_, comm_);
   }
   if (c.done < c.steps) {
@@ -229,7 +277,7 @@ void Level::coupling_end_step() {
   }
   bus::IntervalStats s;
   {
-    PhaseTimer t(times_.comm);
+    PhaseTimer t(times_.coupling);
     s.set_interval(c.k);
     s.set_sim_time(time());
     for (auto& g : c.grids) *s.add_grids() = g.finish(p_, comm_, r_max_);

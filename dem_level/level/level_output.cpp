@@ -195,10 +195,11 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
   // Collective part first: every rank contributes, rank 0 writes.
   const auto b = mass_balance();
   const double nr = static_cast<double>(comm_.size());
-  double sums[10] = {times_.integrate, times_.neighbor, times_.force, times_.comm, times_.measure, times_.insert,
+  double sums[12] = {times_.integrate, times_.neighbor, times_.force, times_.comm, times_.measure, times_.insert,
                      times_.output, static_cast<double>(nl_.pairs()), static_cast<double>(memory_bytes()),
-                     static_cast<double>(p_.n_local())};
-  comm_.sum_in_place(sums, 10);
+                     static_cast<double>(p_.n_local()), times_.coupling, times_.coupling_wait};
+  comm_.sum_in_place(sums, 12);
+  const CouplingReport cr = coupling_report();
   if (comm_.rank() != 0) return;
   const double wall = wall_seconds_before_ + (now_seconds() - wall_start_);
   json j;
@@ -231,11 +232,14 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
   lv["performance"] = {
       {"seconds", {{"integrate", sums[0] / nr}, {"neighbor", sums[1] / nr}, {"force", sums[2] / nr},
                    {"comm", sums[3] / nr}, {"measure", sums[4] / nr}, {"insert", sums[5] / nr},
-                   {"output", sums[6] / nr}}},
+                   {"output", sums[6] / nr}, {"coupling", sums[10] / nr}, {"coupling_wait", sums[11] / nr}}},
       {"rebuilds_per_1000_steps", step_ > 0 ? 1000.0 * static_cast<double>(rebuilds_) / static_cast<double>(step_) : 0.0},
       {"neighbour_pairs_per_particle", sums[7] / n_now},
       {"bytes_per_particle", sums[8] / n_now},
       {"ranks", comm_.size()}};
+  if (coupled_)
+    lv["coupling"] = {{"intervals", cr.intervals}, {"inserted_from_coupler", cr.inserted},
+                      {"largest_insert_overlap_of_diameter", cr.worst_insert_overlap}};
   j["levels"] = json::array({lv});
   json probes = json::array();
   for (const auto& pr : probes_) {
