@@ -110,13 +110,18 @@ std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vecto
     // Coarse -> fine: insertion list.
     r.planner.add_crossings(to_vector(cs.face_mass()), to_vector(cs.face_momentum()), to_vector(cs.face_moment()),
                             {cs.face_histogram().begin(), cs.face_histogram().end()});
-    std::vector<Sphere> occ;
-    occ.reserve(static_cast<size_t>(fs.occupants_size() / 4));
-    for (int i = 0; i + 3 < fs.occupants_size(); i += 4)
-      occ.push_back({{fs.occupants(i), fs.occupants(i + 1), fs.occupants(i + 2)}, fs.occupants(i + 3)});
-    const auto ins = r.planner.plan(k + 1, occ);
+    // Placing needs the fine particles in the slabs; without them the mass waits an interval.
+    std::vector<Insert> ins;
+    if (fs.occupants_sent()) {
+      std::vector<Sphere> occ;
+      occ.reserve(static_cast<size_t>(fs.occupants_size() / 4));
+      for (int i = 0; i + 3 < fs.occupants_size(); i += 4)
+        occ.push_back({{fs.occupants(i), fs.occupants(i + 1), fs.occupants(i + 2)}, fs.occupants(i + 3)});
+      ins = r.planner.plan(k + 1, occ);
+    }
     bus::GridCommands& fine = *out[lf].add_grids();
     fine.set_grid(static_cast<uint32_t>(ri));
+    fine.set_want_occupants(r.planner.wants_occupants(k + 1));
     r.log.inserted = ins.size();
     r.log.inserted_mass = 0.0;
     for (const auto& p : ins) {

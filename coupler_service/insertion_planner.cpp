@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <unordered_map>
@@ -84,6 +85,7 @@ void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std:
   for (size_t f = 0; f < nf; ++f) {
     FaceState& s = faces_[f];
     s.crossed += mass[f];
+    s.last_crossed = mass[f];
     s.remainder = s.crossed - s.inserted;
     for (size_t b = 0; b < nb; ++b) s.histogram[b] += histogram[f * nb + b];
     if (mass[f] > 0.0) {
@@ -117,11 +119,21 @@ double InsertionPlanner::draw_radius(const FaceState& f, Rng& rng) const {
   return (e[bin] + u * (e[bin + 1] - e[bin])) / prm_.ratio;
 }
 
+bool InsertionPlanner::wants_occupants(uint64_t interval) const {
+  const double m_min = mass_of(prm_.radius_bins.front() / prm_.ratio);
+  bool any = false, fresh = false;
+  for (const auto& s : faces_) {
+    if (!s.seen || s.remainder + std::max(0.0, s.last_crossed) < m_min) continue;
+    any = true;
+    fresh = fresh || s.short_streak == 0;
+  }
+  return any && (fresh || interval % 4 == 0);
+}
+
 std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<Sphere>& occupants) {
   std::vector<Insert> out;
   const double r_max = prm_.radius_bins.back() / prm_.ratio;
-  SphereHash hash(2.0 * r_max);
-  for (const auto& s : occupants) hash.add(s);
+  std::optional<SphereHash> hash;  // built on the first candidate: most intervals place nothing
   const double h = geo_.cell_size(), top = geo_.top();
   for (size_t f = 0; f < faces_.size(); ++f) {
     FaceState& s = faces_[f];
@@ -135,20 +147,27 @@ std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<
       const double zlo = top - prm_.insert_depth + r, zhi = top - r;
       if (zhi < zlo) throw std::runtime_error("insertion planner: insert_depth is smaller than a fine diameter");
       std::uniform_real_distribution<double> ux(lo.x, lo.x + h), uy(lo.y, lo.y + h), uz(zlo, zhi);
+      if (!hash) {
+        hash.emplace(2.0 * r_max);
+        for (const auto& o : occupants) hash->add(o);
+      }
       bool placed = false;
-      for (int a = 0; a < prm_.attempts && !placed; ++a) {
+      const int attempts = s.short_streak > 0 ? prm_.attempts_when_full : prm_.attempts;
+      for (int a = 0; a < attempts && !placed; ++a) {
         const Vec3 x{ux(rng), uy(rng), uz(rng)};
-        if (hash.overlaps(x, r) || !fits_(s.anchor, x, r)) continue;
-        hash.add({x, r});
+        if (hash->overlaps(x, r) || !fits_(s.anchor, x, r)) continue;
+        hash->add({x, r});
         out.push_back({x, r, s.velocity});
         s.inserted += m;
         s.remainder = s.crossed - s.inserted;
         ++s.placed;
         s.next_radius = 0.0;
+        s.short_streak = 0;
         placed = true;
       }
       if (!placed) {
         ++s.short_intervals;
+        ++s.short_streak;
         break;
       }
     }

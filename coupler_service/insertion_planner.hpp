@@ -31,6 +31,7 @@ struct PlannerParams {
   double insert_depth = 0.01;      // slab depth below the boundary surface [m]
   std::vector<double> radius_bins; // coarse radius bin edges (size bins + 1; equal edges = one radius)
   int attempts = 300;              // SSI candidates per particle before the face gives up this interval
+  int attempts_when_full = 30;     // the same for a face whose slab was full last time
   uint64_t seed = 1;
 };
 
@@ -45,6 +46,8 @@ struct FaceState {
   std::vector<int64_t> histogram;  // net crossing counts per bin, all intervals so far
   double next_radius = 0.0;  // drawn, not yet placed; 0 = draw one
   uint64_t short_intervals = 0;  // intervals that ended with room lacking for the next particle
+  uint64_t short_streak = 0;     // consecutive such intervals (0 after a placement)
+  double last_crossed = 0.0;     // net coarse mass of the latest interval [kg]
 };
 
 // Accepts a sphere centre x, radius r, given a point `anchor` known to be
@@ -62,6 +65,10 @@ class InsertionPlanner {
                      const std::vector<double>& moment, const std::vector<int64_t>& histogram);
   // Places what the remainders cover, given the fine particles in the slabs.
   std::vector<Insert> plan(uint64_t interval, const std::vector<Sphere>& occupants);
+  // Whether the fine level should report its slabs' particles at the end of `interval`: some face
+  // will likely have a particle's mass to place (its remainder plus one more interval's crossing).
+  // Faces whose slabs were full are retried every 4th interval only.
+  bool wants_occupants(uint64_t interval) const;
 
   const std::vector<FaceState>& faces() const { return faces_; }
   std::vector<FaceState>& faces_mut() { return faces_; }

@@ -238,6 +238,7 @@ TEST(Coupler, OneIntervalGivesInsertionTractionAndCorrection) {
   cells(*cg, geo, 300.0, 0.5, {0, 0, -0.10}, 0.4);
   auto* fg = st[1].add_grids();
   cells(*fg, geo, 200.0, 0.6, {0, 0, -0.12}, 0.3);
+  fg->set_occupants_sent(true);  // an empty slab
   const auto cmds = coupler.advance(0, st);
   ASSERT_EQ(cmds.size(), 2u);
   EXPECT_EQ(cmds[0].interval(), 1u);
@@ -246,6 +247,7 @@ TEST(Coupler, OneIntervalGivesInsertionTractionAndCorrection) {
   EXPECT_EQ(fine.speed_limit_size(), 9);
   EXPECT_GT(fine.insert_size(), 0);
   EXPECT_EQ(fine.insert_size() % 7, 0);
+  EXPECT_TRUE(fine.want_occupants()) << "mass keeps crossing: the next plan needs the slab's particles";
   // The fine stress is below the coarse setpoint: positive traction (push down), 0.4 m/s limit.
   for (int f = 0; f < 9; ++f) {
     EXPECT_NEAR(fine.traction(f), 0.5 * 100.0 + 50.0 * 100.0 * 8e-5, 1e-9);
@@ -258,6 +260,24 @@ TEST(Coupler, OneIntervalGivesInsertionTractionAndCorrection) {
     const double az = coarse.acceleration(static_cast<int>(3 * c + 2));
     if (geo.is_transition(c)) EXPECT_EQ(az, 0.0);
     else EXPECT_NEAR(az, 10.0 * (-0.144 + 0.10), 1e-12);
+  }
+  // An interval without crossing and without the slab report: nothing is placed, and with the
+  // remainders below a fine particle's mass no report is asked for.
+  {
+    auto quiet = st;
+    for (auto& s : quiet) s.set_interval(1);
+    auto* g = quiet[0].mutable_grids(0);
+    for (int f = 0; f < g->face_mass_size(); ++f) g->set_face_mass(f, 0.0);
+    for (auto& q : *g->mutable_face_momentum()) q = 0.0;
+    for (auto& q : *g->mutable_face_moment()) q = 0.0;
+    for (auto& q : *g->mutable_face_histogram()) q = 0;
+    quiet[1].mutable_grids(0)->set_occupants_sent(false);
+    Coupler again(cfg, inside_box);
+    auto first = st;
+    again.advance(0, first);
+    const auto cmds2 = again.advance(1, quiet);
+    EXPECT_EQ(cmds2[1].grids(0).insert_size(), 0);
+    EXPECT_FALSE(cmds2[1].grids(0).want_occupants());
   }
   // A malformed statistic names the level and the field.
   st[1].mutable_grids(0)->add_cell_volume_fraction(0.1);

@@ -106,6 +106,7 @@ LevelResult scripted_level(const std::string& ep, const CouplerConfig& cfg, size
   std::vector<bus::CouplingGeometry> geo;
   for (const auto& g : w.grids()) geo.emplace_back(g);
   std::vector<std::vector<Vec3>> mine(geo.size());  // fine particles per region (this level as fine)
+  std::vector<bool> want(geo.size(), true);          // the coupler asked for the slab's particles
   for (uint64_t k = 0; k < intervals; ++k) {
     auto c = ch.receive(milliseconds(5000));
     if (!c) { res.error = "no commands"; return res; }
@@ -115,6 +116,7 @@ LevelResult scripted_level(const std::string& ep, const CouplerConfig& cfg, size
     EXPECT_EQ(cmd.interval(), k);
     ++res.intervals;
     for (const auto& gc : cmd.grids()) {
+      if (w.grids(static_cast<int>(gc.grid())).fine_level() == me) want[gc.grid()] = gc.want_occupants();
       res.inserted += static_cast<size_t>(gc.insert_size() / 7);
       for (int i = 0; i + 6 < gc.insert_size(); i += 7)
         mine[gc.grid()].push_back({gc.insert(i), gc.insert(i + 1), gc.insert(i + 2)});
@@ -154,8 +156,10 @@ LevelResult scripted_level(const std::string& ep, const CouplerConfig& cfg, size
       if (fine) {
         for (auto& x : mine[g]) {
           x.z -= 0.003;
-          for (double q : {x.x, x.y, x.z, kR * cfg.levels[me].alpha}) gs->add_occupants(q);
+          if (want[g])
+            for (double q : {x.x, x.y, x.z, kR * cfg.levels[me].alpha}) gs->add_occupants(q);
         }
+        gs->set_occupants_sent(want[g]);
       }
     }
     ch.send(out);

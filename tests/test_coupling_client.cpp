@@ -126,6 +126,22 @@ TEST(FaceFlux, ScriptedParticlesFallingThroughFacesGiveExactNetSums) {
   EXPECT_EQ(ff.histogram, (std::vector<int64_t>{0, 0, 0, 0}));
 }
 
+TEST(FaceFlux, ParticlesBornInsideTheRegionCountAsEntered) {
+  // Faces at z = 0.02 over x in [0, 0.01) and [0.01, 0.02); a coarse level that pours into the region
+  // itself hands that mass over as if it had crossed.
+  const bus::CouplingGeometry geo(make_grid({0, 0, 0}, 0.01, 2, 1, 2, {1e-3, 2e-3, 3e-3}));
+  Particles p;
+  add(p, {0.015, 0.005, 0.005}, 2.5e-3, {0, 0, -3.0});  // inside, column of face 1
+  add(p, {0.005, 0.005, 0.025}, 1.5e-3, {0, 0, -3.0});  // above the boundary surface: crosses later
+  add(p, {0.035, 0.005, 0.005}, 1.5e-3, {0, 0, -3.0});  // beside the box
+  FaceFlux ff(geo);
+  for (size_t i = 0; i < 3; ++i) ff.add_born(p.x[i], p.v[i], p.mass[i], p.radius[i]);
+  EXPECT_EQ(ff.mass, (std::vector<double>{0.0, p.mass[0]}));
+  EXPECT_DOUBLE_EQ(ff.momentum[5], -3.0 * p.mass[0]);
+  EXPECT_DOUBLE_EQ(ff.moment[3], 0.015 * p.mass[0]);
+  EXPECT_EQ(ff.histogram, (std::vector<int64_t>{0, 0, 0, 1}));
+}
+
 TEST(FaceFlux, UpwardCrossingSubtracts) {
   const bus::CouplingGeometry geo(make_grid({0, 0, 0}, 0.01, 1, 1, 1, {1e-3, 2e-3}));
   Particles p;
@@ -149,7 +165,7 @@ TEST(ControllerForces, TractionOfACellSumsToTh2AndFadesToZero) {
   Particles p;
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  for (int i = 0; i < 200; ++i)  // over the whole box, depths 0 .. 6 mm
+  for (int i = 0; i < 3000; ++i)  // over the whole box, depths 0 .. 6 mm, denser than a packed layer
     add(p, {0.02 * u(rng), 0.02 * u(rng), top - 0.006 * u(rng)}, 4e-4 + 4e-4 * u(rng));
   ControllerForces cf(geo);
   const std::vector<double> T{120.0, 0.0, 35.5, 1e4};
@@ -178,6 +194,23 @@ TEST(ControllerForces, TractionOfACellSumsToTh2AndFadesToZero) {
   }
 }
 
+TEST(ControllerForces, ASparseLayerGetsNoMoreForcePerParticleThanAPackedOne) {
+  auto grid = make_grid({0, 0, 0}, 0.01, 1, 1, 1);
+  grid.set_fade_depth(0.003);
+  const bus::CouplingGeometry geo(grid);
+  Particles p;
+  add(p, {0.005, 0.005, geo.top() - 0.001}, 5e-4);  // one particle at depth 1 mm
+  ControllerForces cf(geo);
+  cf.set_traction({200.0}, {});
+  cf.normalise(p, Comm{});
+  p.clear_forces();
+  cf.apply(p);
+  // Spread as over a loosely packed fade zone (volume fraction 0.55): weight 0.55 h^2 D / 2.
+  const double w = 4.0 / 3.0 * M_PI * 1.25e-10 * (1.0 - 1.0 / 3.0), packed = 0.55 * 1e-4 * 0.5 * 0.003;
+  EXPECT_NEAR(p.f[0].z, -200.0 * 1e-4 * w / packed, 1e-12);
+  EXPECT_LT(std::fabs(p.f[0].z), 0.01 * 200.0 * 1e-4) << "not the whole traction on one particle";
+}
+
 TEST(ControllerForces, SpeedLimitRemovesTheAcceleratingComponent) {
   auto grid = make_grid({0, 0, 0}, 0.01, 1, 1, 1);
   grid.set_fade_depth(0.004);
@@ -192,7 +225,9 @@ TEST(ControllerForces, SpeedLimitRemovesTheAcceleratingComponent) {
   cf.normalise(p, Comm{});
   p.clear_forces();
   cf.apply(p);
-  const double full = -500.0 * 1e-4 / 4.0;  // equal weights
+  // Equal weights w, spread over at least a loosely packed fade zone (see the sparse-layer test).
+  const double w = 4.0 / 3.0 * M_PI * 1.25e-10 * 0.75;
+  const double full = -500.0 * 1e-4 * w / std::max(4.0 * w, 0.55 * 1e-4 * 0.5 * 0.004);
   EXPECT_EQ(p.f[0], Vec3{});
   EXPECT_NEAR(p.f[1].z, full, 1e-12 * std::fabs(full));
   EXPECT_NEAR(dot(p.f[2], p.v[2]), 0.0, 1e-15);
@@ -226,6 +261,7 @@ TEST(GridLink, InsertionListRemovalAndOccupantsAreCounted) {
   GridLink fine(0, grid, Role::Fine);
   bus::GridCommands c;
   c.set_grid(0);
+  c.set_want_occupants(true);
   for (double v : {0.005, 0.005, 0.018, 1e-3, 0.0, 0.0, -0.5, 0.015, 0.012, 0.018, 1.5e-3, 0.1, 0.0, -0.4}) c.add_insert(v);
   const auto list = GridLink::parse_inserts(c, 2, kRho, 40);
   ASSERT_EQ(list.size(), 2u);
@@ -372,6 +408,7 @@ TEST(CouplingClient, ScriptedCouplerRunsThreeIntervals) {
         if (k == 0) {  // two fine particles just below grid 0's boundary surface
           bus::GridCommands& g = *c.add_grids();
           g.set_grid(0);
+          g.set_want_occupants(true);
           for (double v : {0.004, 0.004, -0.0015, r_in, 0.0, 0.0, 0.0, -0.004, -0.004, -0.002, r_in, 0.0, 0.0, 0.0})
             g.add_insert(v);
         }

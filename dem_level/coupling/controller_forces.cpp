@@ -1,10 +1,16 @@
 #include "coupling/controller_forces.hpp"
 
+#include <algorithm>
+
 #include <numbers>
 #include <stdexcept>
 #include <string>
 
 namespace mlcg::coupling {
+
+namespace {
+constexpr double kPhiPacked = 0.55;  // random loose packing of spheres
+}  // namespace
 
 ControllerForces::ControllerForces(const bus::CouplingGeometry& geo)
     : geo_(geo), top_(geo.top()), depth_(geo.grid().fade_depth()), area_(geo.cell_size() * geo.cell_size()),
@@ -57,6 +63,10 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
     if (f >= 0) wsum_[static_cast<size_t>(f)] += w;
   }
   comm.sum_in_place(wsum_.data(), wsum_.size());
+  // A sparse layer takes no more force per particle than a packed one would: the traction is
+  // spread as if the fade zone held at least a loosely packed layer (volume fraction kPhiPacked).
+  const double packed = kPhiPacked * area_ * 0.5 * depth_;
+  for (auto& w : wsum_) w = std::max(w, packed);
 }
 
 void ControllerForces::apply(Particles& p) const {

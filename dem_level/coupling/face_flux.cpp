@@ -32,22 +32,31 @@ void FaceFlux::refresh(const Particles& p, double band) {
   });
 }
 
+void FaceFlux::add(size_t f, double m, const Vec3& v, const Vec3& x, double r, int sign) {
+  const Vec3 mv = m * v, mx = m * x;
+  mass[f] += m;
+  for (size_t a = 0; a < 3; ++a) {
+    momentum[3 * f + a] += mv[static_cast<int>(a)];
+    moment[3 * f + a] += mx[static_cast<int>(a)];
+  }
+  const int b = std::max(0, face_radius_bin(edges_, r));
+  histogram[f * nb_ + static_cast<size_t>(b)] += sign;
+}
+
 void FaceFlux::check(const Particles& p) {
   plane_.check(p, [&](size_t i, bool down, double, const Vec3& before) {
     const Vec3 xc = plane_.crossing_point(before, p.x[i]);
     const int f = geo_.face_column(xc);
     if (f < 0) return;
-    const auto fs = static_cast<size_t>(f);
-    const double m = down ? p.mass[i] : -p.mass[i];
-    const Vec3 mv = m * p.v[i], mx = m * xc;
-    mass[fs] += m;
-    for (int a = 0; a < 3; ++a) {
-      momentum[3 * fs + static_cast<size_t>(a)] += mv[a];
-      moment[3 * fs + static_cast<size_t>(a)] += mx[a];
-    }
-    const int b = std::max(0, face_radius_bin(edges_, p.radius[i]));
-    histogram[fs * nb_ + static_cast<size_t>(b)] += down ? 1 : -1;
+    add(static_cast<size_t>(f), down ? p.mass[i] : -p.mass[i], p.v[i], xc, p.radius[i], down ? 1 : -1);
   });
+}
+
+void FaceFlux::add_born(const Vec3& x, const Vec3& v, double m, double r) {
+  const Vec3 lo = geo_.box_lo();
+  if (x.x < lo.x || x.y < lo.y || x.z < lo.z || x.z >= geo_.top()) return;
+  const int f = geo_.face_column(x);
+  if (f >= 0) add(static_cast<size_t>(f), m, v, x, r, 1);
 }
 
 void FaceFlux::reduce(const Comm& comm) {

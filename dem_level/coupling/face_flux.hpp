@@ -34,6 +34,9 @@ class FaceFlux {
   void refresh(const Particles& p, double band);
   // After the drift of every step: counts the crossings of this rank's particles.
   void check(const Particles& p);
+  // A particle of this rank created inside the region below the boundary surface (by the
+  // level's own insertion) enters the fine region as if it had crossed its face's column.
+  void add_born(const Vec3& x, const Vec3& v, double m, double r);
   // Zeroes the sums (start of a coupling interval); the candidates stay.
   void reset();
   // Collective: the sums over all ranks (every rank gets them).
@@ -44,6 +47,7 @@ class FaceFlux {
   std::vector<int64_t> histogram;              // nf x bins, face-major
 
  private:
+  void add(size_t f, double m, const Vec3& v, const Vec3& x, double r, int sign);  // m < 0: upward
   bus::CouplingGeometry geo_;
   size_t nf_ = 0, nb_ = 0;
   std::vector<double> edges_;

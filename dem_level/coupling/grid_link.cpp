@@ -63,6 +63,7 @@ void GridLink::begin_interval(const bus::GridCommands* c, const Particles& p, co
     throw std::invalid_argument(where + e.what());
   }
   flux_.reset();
+  want_occupants_ = c == nullptr || c->want_occupants();
   inserted_ = inserted;
   inserted_mass_ = inserted_mass;
   removed_ = removed_mass_ = 0.0;
@@ -83,7 +84,7 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
   g.mutable_cell_volume_fraction()->Assign(m.volume_fraction.begin(), m.volume_fraction.end());
   g.mutable_cell_velocity()->Assign(m.velocity.begin(), m.velocity.end());
   g.mutable_cell_max_speed()->Assign(m.max_speed.begin(), m.max_speed.end());
-  if (role_ == Role::Fine) {
+  if (role_ == Role::Fine && want_occupants_) {
     // Occupants of the insertion slabs: centres within r_max of the slabs below the boundary surface.
     const double zlo = top_ - geo_.grid().insert_depth() - r_max, zhi = top_ + r_max;
     std::vector<char> buf;
@@ -97,6 +98,9 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
     const std::vector<char> all = comm.gather0(buf);
     g.mutable_occupants()->Resize(static_cast<int>(all.size() / sizeof(double)), 0.0);
     if (!all.empty()) std::memcpy(g.mutable_occupants()->mutable_data(), all.data(), all.size());
+    g.set_occupants_sent(true);
+  }
+  if (role_ == Role::Fine) {
     double removed[2] = {removed_, removed_mass_};
     comm.sum_in_place(removed, 2);
     g.set_inserted(inserted_);

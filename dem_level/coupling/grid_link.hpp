@@ -54,6 +54,11 @@ class GridLink {
   void after_drift(const Particles& p) {  // after the positions moved
     if (role_ == Role::Coarse) flux_.check(p);
   }
+  // Coarse role: particle i, just inserted by the level, counts as having entered the fine region
+  // when it was born inside it (the coupler must hand its mass to the fine level too).
+  void born(const Particles& p, size_t i) {
+    if (role_ == Role::Coarse) flux_.add_born(p.x[i], p.v[i], p.mass[i], p.radius[i]);
+  }
   void add_forces(Particles& p) const {
     if (forces_.active()) forces_.apply(p);
   }
@@ -83,6 +88,7 @@ class GridLink {
   double top_;
   Vec3 lo_, hi_;
   FaceFlux flux_;
+  bool want_occupants_ = true;  // the coupler asked for the slabs' particles this interval
   CellStats cells_;
   ControllerForces forces_;
   uint64_t inserted_ = 0;

@@ -93,7 +93,10 @@ void Level::insert_due(double t) {
     if (!placed.empty()) {
       detach_ghosts();  // new local particles go before the ghosts; the rebuild restores them
       for (const auto& pi : placed)
-        if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
+        if (dec_.owner(pi.x) == comm_.rank()) {
+          add_particle(pi);
+          if (coupled_) coupling_born(p_.n_local() - 1);
+        }
       rebuild_pending_ = true;
     }
     if (in.state().done && in.state().failed > 0)

@@ -170,6 +170,7 @@ class Level {
   void connect_coupler();               // collective: register, welcome, grids
   void coupling_begin_step();           // at an interval start: commands, insertion, controller weights
   void coupling_after_drift();          // face crossings
+  void coupling_born(size_t i);         // particle i was just inserted by the level itself
   bool coupling_wants_stress() const;   // this step's forces feed a cell sample
   void coupling_forces();               // controller forces
   void coupling_end_step();             // cell samples; at an interval end the statistics

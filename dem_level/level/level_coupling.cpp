@@ -25,7 +25,7 @@
 namespace mlcg {
 
 namespace {
-constexpr uint64_t kSamplesPerInterval = 5;  // cell samples per coupling interval (the last step always samples)
+constexpr uint64_t kSamplesPerInterval = 2;  // cell samples per coupling interval (the last step always samples); each costs a stress step
 
 double wall_now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -226,6 +226,10 @@ void Level::coupling_begin_step() {
 void Level::coupling_after_drift() {
   PhaseTimer t(times_.coupling);
   for (auto& g : coupled_->grids) g.after_drift(p_);
+}
+
+void Level::coupling_born(size_t i) {
+  for (auto& g : coupled_->grids) g.born(p_, i);
 }
 
 bool Level::coupling_wants_stress() const {
