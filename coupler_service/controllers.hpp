@@ -42,7 +42,7 @@ struct PiController {
 // toward the target from the fine level. Output: an acceleration [m/s^2] the
 // coarse level applies to every particle in the cell, |a| <= limit.
 struct VelocityController {
-  double gain = 50.0;   // 1/s
+  double gain = 500.0;  // 1/s
   double limit = 49.05; // m/s^2
 
   Vec3 update(const Vec3& target, const Vec3& coarse) const {

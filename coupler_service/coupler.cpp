@@ -35,6 +35,13 @@ Coupler::Coupler(CouplerConfig cfg, FitsGeometry fits) : cfg_(std::move(cfg)) {
   }
 }
 
+void Coupler::cancel_last_insertions() {
+  for (auto& r : regions_) {
+    for (const auto& p : r->last) r->planner.unplace(p);
+    r->last.clear();
+  }
+}
+
 int Coupler::level_index(const std::string& name) const {
   for (size_t l = 0; l < cfg_.levels.size(); ++l)
     if (cfg_.levels[l].name == name) return static_cast<int>(l);
@@ -122,6 +129,7 @@ std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vecto
     bus::GridCommands& fine = *out[lf].add_grids();
     fine.set_grid(static_cast<uint32_t>(ri));
     fine.set_want_occupants(r.planner.wants_occupants(k + 1));
+    r.last = ins;
     r.log.inserted = ins.size();
     r.log.inserted_mass = 0.0;
     for (const auto& p : ins) {

@@ -66,6 +66,10 @@ class Coupler {
   // naming the level and field when a message does not fit the grids.
   std::vector<bus::IntervalCommands> advance(uint64_t k, const std::vector<bus::IntervalStats>& stats);
 
+  // The levels finished without running the last commands: their insertion lists are returned to
+  // the faces, so the totals count what the fine levels really inserted.
+  void cancel_last_insertions();
+
   const bus::CouplingGeometry& geometry(size_t r) const { return regions_[r]->geo; }
   const InsertionPlanner& planner(size_t r) const { return regions_[r]->planner; }
   const RegionLog& log(size_t r) const { return regions_[r]->log; }
@@ -78,6 +82,7 @@ class Coupler {
     InsertionPlanner planner;
     std::vector<PiController> pi;  // per transition cell (face order)
     RegionLog log;
+    std::vector<Insert> last;       // the latest insertion list sent
   };
   const bus::GridStats& grid_stats(const bus::IntervalStats& s, size_t region, size_t level) const;
   void check(const bus::GridStats& g, const Region& r, bool coarse, size_t level) const;

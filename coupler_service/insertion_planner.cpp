@@ -100,6 +100,15 @@ void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std:
   }
 }
 
+void InsertionPlanner::unplace(const Insert& p) {
+  const int f = geo_.face_column(p.x);
+  if (f < 0) return;
+  FaceState& s = faces_[static_cast<size_t>(f)];
+  s.inserted -= mass_of(p.r);
+  s.remainder = s.crossed - s.inserted;
+  --s.placed;
+}
+
 template <class Rng>
 double InsertionPlanner::draw_radius(const FaceState& f, Rng& rng) const {
   const auto& e = prm_.radius_bins;

@@ -69,6 +69,8 @@ class InsertionPlanner {
   // will likely have a particle's mass to place (its remainder plus one more interval's crossing).
   // Faces whose slabs were full are retried every 4th interval only.
   bool wants_occupants(uint64_t interval) const;
+  // A placed particle that was never inserted (the run ended first): its mass goes back to its face.
+  void unplace(const Insert& p);
 
   const std::vector<FaceState>& faces() const { return faces_; }
   std::vector<FaceState>& faces_mut() { return faces_; }

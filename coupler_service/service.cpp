@@ -256,6 +256,7 @@ int Service::loop() {
       continue;
     }
     if (all(&Peer::finished)) {
+      coupler_.cancel_last_insertions();  // sent after the levels' last interval, never run
       log_->info("all levels finished after {} intervals; {} message(s) refused; coupler busy {:.2f} s", k_,
                  refused_, busy_);
       for (auto& f : csv_) f.flush();

@@ -744,7 +744,7 @@ TEST(CaseParser, TwoLevelCaseTakesCouplingDefaults) {
   EXPECT_DOUBLE_EQ(r.ki, 50.0);
   EXPECT_DOUBLE_EQ(r.traction_limit, 0.0);
   EXPECT_EQ(r.correct, "mass_flow");
-  EXPECT_DOUBLE_EQ(r.velocity_gain, 50.0);
+  EXPECT_DOUBLE_EQ(r.velocity_gain, 500.0);
   EXPECT_DOUBLE_EQ(r.acceleration_limit, 0.0);
   EXPECT_TRUE(std::isinf(r.velocity_only_below) && r.velocity_only_below < 0.0);
   EXPECT_EQ(r.radius_bins, 8);
@@ -932,6 +932,7 @@ TEST(CaseParserErrors, CouplingValueRanges) {
   bad("traction_limit = -1", "traction_limit", "is negative");
   bad("correct = \"mass-flow\"", "correct", "(did you mean 'mass_flow'?); allowed: mass_flow, velocity, none");
   bad("velocity_gain = 0", "velocity_gain", "0 is not > 0");
+  bad("velocity_gain = 1e5", "velocity_gain", "would overshoot; give at most 31250 1/s");
   bad("acceleration_limit = -1", "acceleration_limit", "is negative");
   bad("radius_bins = 0", "radius_bins", "give an integer >= 1");
   bad("radius_bins = 8.0", "radius_bins", "expected an integer, found float");

@@ -177,6 +177,7 @@ struct RunResult {
   std::vector<LevelResult> levels;
   std::string csv;
   double crossed = 0.0, inserted = 0.0, remainder = 0.0;
+  uint64_t placed = 0;
 };
 
 RunResult run_hierarchy(const std::vector<double>& alphas, uint64_t intervals, const fs::path& out,
@@ -214,6 +215,7 @@ RunResult run_hierarchy(const std::vector<double>& alphas, uint64_t intervals, c
     run.crossed += fs.crossed;
     run.inserted += fs.inserted;
     run.remainder += fs.remainder;
+    run.placed += fs.placed;
   }
   return run;
 }
@@ -238,6 +240,8 @@ TEST(CouplerService, TwoScriptedLevelsRunToTheEndWithExactMass) {
   EXPECT_NEAR(run.crossed, run.inserted + run.remainder, 1e-12 * run.crossed);
   const double m_fine = 1000.0 * 4.0 / 3.0 * M_PI * kR * kR * kR;
   EXPECT_NEAR(run.inserted, m_fine * static_cast<double>(run.levels[1].inserted), 1e-12 * run.inserted);
+  // The list computed after the last interval never ran: the coupler counts only what the level got.
+  EXPECT_EQ(run.placed, run.levels[1].inserted);
   EXPECT_GT(run.levels[1].traction_sum, 0.0) << "the fine stress is below the coarse one: the PI must push";
   // One log row per interval the coupler computed (59: the last stats end the run).
   EXPECT_EQ(std::count(run.csv.begin(), run.csv.end(), '\n'), 1 + 60);

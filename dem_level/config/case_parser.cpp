@@ -5,6 +5,8 @@
 // the typed key readers live in case_parser_read.cpp.
 #include "config/case_parser.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -126,9 +128,8 @@ void read_levels(const Table& root, CaseSpec& spec, Names& names) {
         product *= static_cast<int64_t>(g);
       }
       t.check("processors", product == l.ranks,
-              "[" + std::to_string(l.processors[0]) + ", " + std::to_string(l.processors[1]) + ", " +
-                  std::to_string(l.processors[2]) + "] makes " + std::to_string(product) +
-                  " boxes but ranks = " + std::to_string(l.ranks) + "; the product must equal ranks");
+              fmt::format("[{}, {}, {}] makes {} boxes but ranks = {}; the product must equal ranks",
+                          l.processors[0], l.processors[1], l.processors[2], product, l.ranks));
     }
     l.balance = t.boolean("balance").value_or(l.balance);
     l.loc = t.loc();

@@ -183,6 +183,11 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
   std::map<std::string, std::string> fine_of;  // fine level -> "coupling.regions[0], line 40"
   for (const Table& r : tables) {
     CouplingRegionSpec g = read_region(r, spec, names);
+    // The correction is applied explicitly once per interval: a gain x interval near 1 overshoots.
+    r.check("velocity_gain", g.velocity_gain * c.interval <= 0.5,
+            num(g.velocity_gain) + " 1/s x the coupling interval " + num(c.interval) + " s = " +
+                num(g.velocity_gain * c.interval) + " would overshoot; give at most " + num(0.5 / c.interval) +
+                " 1/s, or a shorter interval");
     const auto [it, fresh] = fine_of.emplace(g.fine, r.path() + ", line " + std::to_string(r.line("fine")));
     if (!fresh)
       r.fail("fine", "level '" + g.fine + "' is already the fine level of " + it->second +

@@ -204,7 +204,8 @@ struct CouplingRegionSpec {        // [[coupling.regions]] one fine region insid
   double traction_limit = 0.0;     // traction_limit [Pa] >= 0: largest |traction|; 0 = automatic
                                    //   (density x |g| x domain height: a full column of solid)
   std::string correct = "mass_flow";  // correct: "mass_flow" | "velocity" | "none" (coarse correction cells)
-  double velocity_gain = 50.0;     // velocity_gain > 0 [1/s]: P controller on the coarse cells' mean velocity
+  double velocity_gain = 500.0;    // velocity_gain > 0 [1/s]: P controller on the coarse cells' mean velocity;
+                                   //   velocity_gain x interval <= 0.5
   double acceleration_limit = 0.0; // acceleration_limit [m/s2] >= 0; 0 = automatic (5 |g|)
   double velocity_only_below = -std::numeric_limits<double>::infinity();
                                    // velocity_only_below [m]: cells below this height use pure velocity coupling
