@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <numbers>
 #include <unordered_map>
 
@@ -66,9 +67,15 @@ double insert_overlap(const Particles& p, size_t first, double reach) {
     return (c(x.x, dx) << 42) | (c(x.y, dy) << 21) | c(x.z, dz);
   };
   std::unordered_map<uint64_t, std::vector<size_t>> fresh;
-  for (size_t i = first; i < n; ++i) fresh[key(p.x[i], 0, 0, 0)].push_back(i);
+  double zlo = std::numeric_limits<double>::infinity(), zhi = -zlo;
+  for (size_t i = first; i < n; ++i) {
+    fresh[key(p.x[i], 0, 0, 0)].push_back(i);
+    zlo = std::min(zlo, p.x[i].z - reach);
+    zhi = std::max(zhi, p.x[i].z + reach);
+  }
   double worst = 0.0;
-  for (size_t j = 0; j < n; ++j)
+  for (size_t j = 0; j < n; ++j) {
+    if (p.x[j].z < zlo || p.x[j].z > zhi) continue;  // the new particles sit in a thin slab
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = -1; dz <= 1; ++dz) {
@@ -80,6 +87,7 @@ double insert_overlap(const Particles& p, size_t first, double reach) {
             worst = std::max(worst, ov / (2.0 * p.radius[i]));
           }
         }
+  }
   return worst;
 }
 
