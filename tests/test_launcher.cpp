@@ -116,51 +116,71 @@ TEST(Launcher, StartsAMultiRankLevelThroughMpirun) {
 // A whole two-level run (coupler + two dem_level processes) on the small quickstart hopper: the mass
 // handed from the coarse to the fine level is exact per face, the fine level's balance is exact,
 // nothing overlaps on insertion, and the fine level carries the discharge.
-TEST(MlcgRun, TwoLevelHopperHandsMassOverExactlyAndDischargesThroughTheFineLevel) {
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_2lvl_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  ASSERT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/quickstart/mlcg.toml --out " + dir.string() + " --quiet > " +
-                dir.string() + ".out 2>&1"),
-            0)
-      << "see " << dir.string() << ".out";
-  const auto s = read_json(dir / "summary.json");
-  EXPECT_EQ(s["status"], "completed");
-  ASSERT_EQ(s["levels"].size(), 2u);
-  EXPECT_EQ(s["probes_from_level"], "fine");
-
-  // Per face: coarse mass crossed = fine mass inserted + remainder, to 1e-12.
-  const auto faces = read_csv(dir / "coupling" / "faces_region0.csv");
-  ASSERT_FALSE(faces.empty());
+// Checks region r of a finished hierarchy run whose fine level is `fine`: per face, coarse mass crossed =
+// fine mass inserted + remainder to 1e-12; the fine level inserted exactly what the coupler placed, with
+// no overlap above 1 % of a diameter, and its balance is exact. Returns the inserted mass.
+double check_region(const fs::path& dir, const nlohmann::json& s, int r, const std::string& fine_name) {
+  const auto faces = read_csv(dir / "coupling" / ("faces_region" + std::to_string(r) + ".csv"));
+  EXPECT_FALSE(faces.empty());
   double crossed = 0.0, inserted = 0.0;
   for (const auto& f : faces) {
-    const double c = std::stod(f[3]), i = std::stod(f[4]), r = std::stod(f[5]);
-    EXPECT_LE(std::fabs(c - i - r), 1e-12 * std::max(std::fabs(c), 1e-30)) << "face " << f[0];
+    const double c = std::stod(f[3]), i = std::stod(f[4]), rem = std::stod(f[5]);
+    EXPECT_LE(std::fabs(c - i - rem), 1e-12 * std::max(std::fabs(c), 1e-30)) << "region " << r << " face " << f[0];
     crossed += c;
     inserted += i;
   }
-  EXPECT_GT(inserted, 0.5 * crossed) << "most of the crossed mass must be placed";
-
-  // The fine level inserted exactly what the coupler placed; its balance is exact.
-  const auto fine = read_json(dir / "levels" / "fine" / "summary.json");
+  EXPECT_GT(inserted, 0.5 * crossed) << "most of the crossed mass must be placed (region " << r << ")";
+  const auto fine = read_json(dir / "levels" / fine_name / "summary.json");
   const auto& b = fine["mass_balance"];
   EXPECT_EQ(b["inserted"].get<int64_t>(), b["present"].get<int64_t>() + b["removed"].get<int64_t>() +
                                               b["failed_to_place"].get<int64_t>());
   EXPECT_NEAR(b["inserted_mass_kg"].get<double>(), inserted, 1e-12 * inserted);
-  EXPECT_EQ(b["inserted"].get<int64_t>(), s["coupling"]["regions"][0]["inserted_particles"].get<int64_t>());
-  EXPECT_GT(b["inserted"].get<int64_t>(), 500);
-  // Insertion quality: no inserted particle overlaps another by more than 1 % of its diameter.
+  EXPECT_EQ(b["inserted"].get<int64_t>(), s["coupling"]["regions"][r]["inserted_particles"].get<int64_t>());
   const double overlap = fine["levels"][0]["coupling"]["largest_insert_overlap_of_diameter"].get<double>();
   EXPECT_LE(overlap, 0.01);
+  std::printf("region %d: %.6g kg crossed, %.6g kg inserted as %lld particles of level '%s' (largest overlap %.3g "
+              "of a diameter)\n", r, crossed, inserted, static_cast<long long>(b["inserted"].get<int64_t>()),
+              fine_name.c_str(), overlap);
+  return inserted;
+}
 
-  // The fine level discharges: its probe saw mass, and the coarse level kept its particles' mass.
+fs::path run_hierarchy_case(const std::string& name, const std::string& tag) {
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/quickstart/" + name + " --out " + dir.string() + " --quiet > " +
+                dir.string() + ".out 2>&1"),
+            0)
+      << "see " << dir.string() << ".out";
+  return dir;
+}
+
+TEST(MlcgRun, TwoLevelHopperHandsMassOverExactlyAndDischargesThroughTheFineLevel) {
+  const fs::path dir = run_hierarchy_case("mlcg.toml", "2lvl");
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  ASSERT_EQ(s["levels"].size(), 2u);
+  EXPECT_EQ(s["probes_from_level"], "fine");
+  const double inserted = check_region(dir, s, 0, "fine");
+  EXPECT_GT(s["coupling"]["regions"][0]["inserted_particles"].get<int64_t>(), 500);
+  // The fine level discharges: its probe saw mass; the coarse level holds the case's particles.
   EXPECT_GT(s["probes"][0]["total_mass_kg"].get<double>(), 0.1 * inserted);
   const auto coarse = read_json(dir / "levels" / "coarse" / "summary.json");
   EXPECT_EQ(coarse["mass_balance"]["inserted"].get<int64_t>(), 313);
   EXPECT_GE(s["coupling"]["overhead_share"].get<double>(), 0.0);
-  std::printf("two-level hopper: %.6g kg crossed, %.6g kg inserted as %lld fine particles (largest overlap %.3g of "
-              "a diameter), coupling overhead %.1f %%\n",
-              crossed, inserted, static_cast<long long>(b["inserted"].get<int64_t>()), overlap,
-              100.0 * s["coupling"]["overhead_share"].get<double>());
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".out");
+}
+
+TEST(MlcgRun, ThreeLevelHopperNestsTwoRegionsThroughTheMiddleLevel) {
+  const fs::path dir = run_hierarchy_case("mlcg3.toml", "3lvl");
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  ASSERT_EQ(s["levels"].size(), 3u);
+  ASSERT_EQ(s["coupling"]["regions"].size(), 2u);
+  EXPECT_EQ(s["probes_from_level"], "fine");
+  check_region(dir, s, 0, "coarse");  // alpha 4 -> 2
+  const double inserted = check_region(dir, s, 1, "fine");  // alpha 2 -> 1, fed by what region 0 inserted
+  EXPECT_GT(s["probes"][0]["total_mass_kg"].get<double>(), 0.1 * inserted);
   fs::remove_all(dir);
   fs::remove(dir.string() + ".out");
 }
