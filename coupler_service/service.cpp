@@ -1,5 +1,6 @@
 #include "service.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -135,7 +136,13 @@ void Service::handle(const bus::Incoming& in) {
 
 void Service::send_commands(std::vector<bus::IntervalCommands> cmds) {
   const bool last = k_ + 1 >= opt_.max_intervals;
-  for (size_t l = 0; l < peers_.size(); ++l) {
+  // Finest level first: it is the slowest, and a coarser level woken first may take the core
+  // from the coupler for a whole time slice before the next send (measured: 2 ms per interval).
+  std::vector<size_t> order(peers_.size());
+  for (size_t l = 0; l < order.size(); ++l) order[l] = l;
+  const auto& lv = coupler_.config().levels;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return lv[a].alpha < lv[b].alpha; });
+  for (const size_t l : order) {
     if (peers_[l].finished) continue;
     bus::Envelope env;
     cmds[l].set_stop(last && cmds[l].interval() > 0);
