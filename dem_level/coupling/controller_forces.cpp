@@ -69,10 +69,21 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
   for (auto& w : wsum_) w = std::max(w, packed);
 }
 
+void ControllerForces::refresh(const Particles& p, double band) {
+  near_.clear();
+  for (size_t i = 0; i < p.n_local(); ++i) {
+    const double s = top_ - p.x[i].z;
+    if (s > -band && s < depth_ + band) near_.push_back(static_cast<uint32_t>(i));
+  }
+  near_valid_ = true;
+}
+
 void ControllerForces::apply(Particles& p) const {
   const size_t n = p.n_local();
   if (traction_on_) {
-    for (size_t i = 0; i < n; ++i) {
+    const size_t m = near_valid_ ? near_.size() : n;
+    for (size_t q = 0; q < m; ++q) {
+      const size_t i = near_valid_ ? near_[q] : q;
       int f = -1;
       const double w = weight(p.x[i], p.radius[i], f);
       if (f < 0) continue;

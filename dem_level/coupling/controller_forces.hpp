@@ -12,6 +12,7 @@
 //
 // Coarse role, per active cell c with acceleration a_c: every particle whose
 // centre is in the cell gets F = m a_c.
+#include <cstdint>
 #include <vector>
 
 #include "bus/coupling_grid.hpp"
@@ -30,6 +31,9 @@ class ControllerForces {
   void set_acceleration(std::vector<double> acceleration);
   // Collective (fine role): the weight sums W_f over all ranks at the current positions.
   void normalise(const Particles& p, const Comm& comm);
+  // Fine role, after a neighbour-list rebuild: the particles that may enter a faded column
+  // before the next one (depth below D + band). Without a refresh apply() visits every particle.
+  void refresh(const Particles& p, double band);
   // Adds the forces to this rank's particles (p.f).
   void apply(Particles& p) const;
   bool active() const { return traction_on_ || accel_on_; }
@@ -44,6 +48,8 @@ class ControllerForces {
   std::vector<double> traction_, vmax_, wsum_;
   std::vector<Vec3> accel_;
   bool traction_on_ = false, accel_on_ = false;
+  std::vector<uint32_t> near_;  // refresh(): candidates for the traction
+  bool near_valid_ = false;
 };
 
 }  // namespace mlcg::coupling

@@ -50,6 +50,7 @@ class GridLink {
                       double inserted_mass);
   void refresh(const Particles& p, double band) {  // after a neighbour-list rebuild
     if (role_ == Role::Coarse) flux_.refresh(p, band);
+    else forces_.refresh(p, band);
   }
   void after_drift(const Particles& p) {  // after the positions moved
     if (role_ == Role::Coarse) flux_.check(p);
