@@ -2,11 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <optional>
 #include <random>
 #include <stdexcept>
-#include <unordered_map>
 
 namespace mlcg::coupling {
 namespace {
@@ -18,51 +16,6 @@ uint64_t mix(uint64_t x) {  // splitmix64 finaliser
   return x ^ (x >> 31);
 }
 
-// Uniform hash grid over spheres for the SSI overlap test.
-class SphereHash {
- public:
-  explicit SphereHash(double cell) : inv_(1.0 / cell) {}
-  void add(const Sphere& s) {
-    idx_[key(s.x)].push_back(spheres_.size());
-    spheres_.push_back(s);
-    r_max_ = std::max(r_max_, s.r);
-  }
-  bool overlaps(const Vec3& x, double r) const {
-    const double reach = r + r_max_;
-    const int64_t n = static_cast<int64_t>(std::ceil(reach * inv_));
-    const auto c = cell(x);
-    for (int64_t i = -n; i <= n; ++i)
-      for (int64_t j = -n; j <= n; ++j)
-        for (int64_t k = -n; k <= n; ++k) {
-          const auto it = idx_.find(pack(c[0] + i, c[1] + j, c[2] + k));
-          if (it == idx_.end()) continue;
-          for (size_t s : it->second) {
-            const double d = spheres_[s].r + r;
-            if (norm2(spheres_[s].x - x) < d * d) return true;
-          }
-        }
-    return false;
-  }
-
- private:
-  std::array<int64_t, 3> cell(const Vec3& x) const {
-    return {static_cast<int64_t>(std::floor(x.x * inv_)), static_cast<int64_t>(std::floor(x.y * inv_)),
-            static_cast<int64_t>(std::floor(x.z * inv_))};
-  }
-  static uint64_t pack(int64_t i, int64_t j, int64_t k) {
-    return (static_cast<uint64_t>(i & 0x1fffff) << 42) | (static_cast<uint64_t>(j & 0x1fffff) << 21) |
-           static_cast<uint64_t>(k & 0x1fffff);
-  }
-  uint64_t key(const Vec3& x) const {
-    const auto c = cell(x);
-    return pack(c[0], c[1], c[2]);
-  }
-  double inv_;
-  double r_max_ = 0.0;
-  std::vector<Sphere> spheres_;
-  std::unordered_map<uint64_t, std::vector<size_t>> idx_;
-};
-
 }  // namespace
 
 InsertionPlanner::InsertionPlanner(const bus::CouplingGeometry& geo, PlannerParams prm, FitsGeometry fits)
@@ -72,9 +25,7 @@ InsertionPlanner::InsertionPlanner(const bus::CouplingGeometry& geo, PlannerPara
   for (auto& f : faces_) f.histogram.assign(prm_.radius_bins.size() - 1, 0);
 }
 
-double InsertionPlanner::mass_of(double r) const {
-  return prm_.density * 4.0 / 3.0 * std::numbers::pi * r * r * r;
-}
+double InsertionPlanner::mass_of(double r) const { return sphere_mass(prm_.density, r); }
 
 void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std::vector<double>& momentum,
                                      const std::vector<double>& moment, const std::vector<int64_t>& histogram) {
@@ -165,7 +116,7 @@ std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<
       for (int a = 0; a < attempts && !placed; ++a) {
         const Vec3 x{ux(rng), uy(rng), uz(rng)};
         if (hash->overlaps(x, r) || !fits_(s.anchor, x, r)) continue;
-        hash->add({x, r});
+        hash->add(x, r);
         out.push_back({x, r, s.velocity});
         s.inserted += m;
         s.remainder = s.crossed - s.inserted;

@@ -18,11 +18,11 @@
 #include <vector>
 
 #include "bus/coupling_grid.hpp"
+#include "core/spheres.hpp"
 #include "core/vec3.hpp"
 
 namespace mlcg::coupling {
 
-struct Sphere { Vec3 x; double r; };
 struct Insert { Vec3 x; double r; Vec3 v; };
 
 struct PlannerParams {

@@ -2,7 +2,6 @@
 // Helpers shared by the validation tests: load a case from cases/, run a level
 // in memory (no run folder) and measure simple collisions.
 #include <cmath>
-#include <numbers>
 #include <string>
 
 #include "config/case_parser.hpp"
@@ -20,8 +19,6 @@ inline LevelOptions quiet() {
   o.quiet = true;
   return o;
 }
-
-inline double sphere_mass(double r, double rho) { return rho * 4.0 / 3.0 * std::numbers::pi * r * r * r; }
 
 // Undamped Hertz contact duration (the formula).
 inline double hertz_time(double m_eff, double r_eff, double e_star, double v) {

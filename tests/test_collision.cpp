@@ -26,7 +26,7 @@ Impact pair_impact(double v, double alpha, double e, double mu, double steps_per
   cs.interactions[0].restitution = e;
   cs.interactions[0].friction = mu;
   const double r = kRadius * alpha;
-  const double m = sphere_mass(r, kRho);
+  const double m = sphere_mass(kRho, r);
   cs.levels[0].alpha = alpha;
   cs.levels[0].dt = hertz_time(0.5 * m, 0.5 * r, kEStarPair, v) / steps_per_contact;
   cs.stability.max_impact_speed = v;
@@ -57,7 +57,7 @@ Impact wall_impact(const std::string& scene, double v, double alpha, double e, d
     in.friction = mu;
   }
   const double r = kRadius * alpha;
-  const double m = sphere_mass(r, kRho);
+  const double m = sphere_mass(kRho, r);
   cs.levels[0].alpha = alpha;
   cs.levels[0].dt = hertz_time(m, r, kEStarWall, v) / steps_per_contact;
   cs.stability.max_impact_speed = v;
@@ -92,7 +92,7 @@ TEST_P(PairElastic, ConservesEnergyAndLastsHertzTime) {
   const Impact im = pair_impact(v, alpha, 1.0, 0.0, kStepsPerContact);
   ASSERT_TRUE(im.separated);
   EXPECT_NEAR(im.ke_after / im.ke_before, 1.0, 1e-6);
-  const double r = kRadius * alpha, m = sphere_mass(r, kRho);
+  const double r = kRadius * alpha, m = sphere_mass(kRho, r);
   const double tc = hertz_time(0.5 * m, 0.5 * r, kEStarPair, v);
   std::printf("pair v = %5.1f m/s alpha = %g, e = 1: KE ratio - 1 = %.2e, contact %.4e s (Hertz %.4e s)\n", v,
               alpha, im.ke_after / im.ke_before - 1.0, im.contact_time, tc);
@@ -113,7 +113,7 @@ TEST_P(WallImpact, RestitutionEnergyAndContactTime) {
   const Impact elastic = wall_impact(scene, v, alpha, 1.0, 0.0, kStepsPerContact);
   ASSERT_TRUE(elastic.separated) << scene;
   EXPECT_NEAR(elastic.ke_after / elastic.ke_before, 1.0, 1e-6) << scene;
-  const double r = kRadius * alpha, m = sphere_mass(r, kRho);
+  const double r = kRadius * alpha, m = sphere_mass(kRho, r);
   const double tc = hertz_time(m, r, kEStarWall, v);
   std::printf("wall %-6s v = %5.1f m/s alpha = %g: e = %.5f; e = 1: KE ratio - 1 = %.2e, contact/Hertz = %.5f\n",
               scene.c_str(), v, alpha, damped.restitution, elastic.ke_after / elastic.ke_before - 1.0,

@@ -27,7 +27,7 @@
 
 using namespace mlcg;
 using namespace mlcg::coupling;
-using mlcg::test::sphere_mass;
+using mlcg::sphere_mass;
 
 namespace {
 
@@ -286,7 +286,7 @@ TEST(GridLink, InsertionListRemovalAndOccupantsAreCounted) {
   Particles p;
   for (const auto& pi : list) p.add(pi);
   add(p, {0.005, 0.005, 0.002}, 1e-3);  // deep in the region: not an occupant
-  const double m_in = sphere_mass(1e-3, kRho) + sphere_mass(1.5e-3, kRho);
+  const double m_in = sphere_mass(kRho, 1e-3) + sphere_mass(kRho, 1.5e-3);
   fine.begin_interval(&c, p, Comm{}, list.size(), m_in);
   EXPECT_TRUE(fine.leaves({0.005, 0.005, 0.0201}));   // above the boundary surface
   EXPECT_TRUE(fine.leaves({-0.001, 0.005, 0.01}));    // beside the box
@@ -503,7 +503,7 @@ TEST(CouplingClient, ScriptedCouplerRunsThreeIntervals) {
     removed += fine.removed();
     removed_mass += fine.removed_mass();
   }
-  const double m_in = sphere_mass(r_in, 1000.0);
+  const double m_in = sphere_mass(1000.0, r_in);
   EXPECT_NEAR(rec.stats[0].grids(0).inserted_mass(), 2 * m_in, 1e-15 * m_in);
   EXPECT_GE(rec.stats[0].grids(0).occupants_size(), 8);  // the two inserted particles at least
   EXPECT_EQ(removed, 1u);                                // the riser

@@ -1,14 +1,14 @@
 #include "core/particles.hpp"
 
-#include <numbers>
 #include <stdexcept>
+
+#include "core/spheres.hpp"
 
 namespace mlcg {
 
 void Particles::add(const ParticleInit& p) {
   if (x.size() != n_local_) throw std::logic_error("Particles::add with ghosts present: drop them first");
-  const double vol = 4.0 / 3.0 * std::numbers::pi * p.radius * p.radius * p.radius;
-  const double m = p.density * vol;
+  const double m = sphere_mass(p.density, p.radius);
   x.push_back(p.x);
   v.push_back(p.v);
   f.push_back({});

@@ -1,10 +1,10 @@
 #include "coupling/controller_forces.hpp"
 
 #include <algorithm>
-
-#include <numbers>
 #include <stdexcept>
 #include <string>
+
+#include "core/spheres.hpp"
 
 namespace mlcg::coupling {
 
@@ -51,7 +51,7 @@ double ControllerForces::weight(const Vec3& x, double r, int& face) const {
   if (!(s >= 0.0 && s < depth_)) return 0.0;
   face = geo_.face_column(x);
   if (face < 0) return 0.0;
-  return 4.0 / 3.0 * std::numbers::pi * r * r * r * (1.0 - s / depth_);
+  return sphere_volume(r) * (1.0 - s / depth_);
 }
 
 void ControllerForces::normalise(const Particles& p, const Comm& comm) {

@@ -4,69 +4,10 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <unordered_map>
 
 namespace mlcg {
 
-namespace {
-
-// Hash grid over the particles that may touch the region, for the overlap test.
-class OverlapGrid {
- public:
-  OverlapGrid(double h) : h_(h), inv_(1.0 / h) {}
-  void add(const Vec3& x, double r) {
-    pts_.push_back({x, r});
-    map_[key(x)].push_back(static_cast<int32_t>(pts_.size() - 1));
-  }
-  bool overlaps(const Vec3& x, double r) const {
-    const int64_t ix = cell(x.x), iy = cell(x.y), iz = cell(x.z);
-    for (int64_t dz = -1; dz <= 1; ++dz)
-      for (int64_t dy = -1; dy <= 1; ++dy)
-        for (int64_t dx = -1; dx <= 1; ++dx) {
-          const auto it = map_.find(pack(ix + dx, iy + dy, iz + dz));
-          if (it == map_.end()) continue;
-          for (int32_t k : it->second) {
-            const auto& q = pts_[static_cast<size_t>(k)];
-            const double s = r + q.r;
-            if (norm2(x - q.x) < s * s) return true;
-          }
-        }
-    return false;
-  }
-
- private:
-  struct P { Vec3 x; double r; };
-  int64_t cell(double c) const { return static_cast<int64_t>(std::floor(c * inv_)); }
-  static int64_t pack(int64_t a, int64_t b, int64_t c) {
-    return ((a & 0x1FFFFF) << 42) | ((b & 0x1FFFFF) << 21) | (c & 0x1FFFFF);
-  }
-  int64_t key(const Vec3& x) const { return pack(cell(x.x), cell(x.y), cell(x.z)); }
-  double h_, inv_;
-  std::vector<P> pts_;
-  std::unordered_map<int64_t, std::vector<int32_t>> map_;
-};
-
-bool touches_wall(const WallSet& walls, const Vec3& x, double r, std::vector<int32_t>& scratch) {
-  WallGeom g;
-  for (int32_t a = 0; a < walls.analytic_count(); ++a) {
-    if (!walls.active(static_cast<size_t>(walls.wall_of_prim(a)))) continue;
-    if (walls.analytic(a).closest(x, g) && g.dist < r) return true;
-  }
-  for (size_t w = 0; w < walls.walls(); ++w) {
-    const auto& in = walls.info(w);
-    if (!in.is_mesh || !in.active) continue;
-    scratch.clear();
-    walls.mesh(in.mesh).query(x, r, scratch);
-    if (!scratch.empty()) return true;
-  }
-  return false;
-}
-
-}  // namespace
-
-double Inserter::particle_mass(double r) const {
-  return prm_.density * 4.0 / 3.0 * std::numbers::pi * r * r * r;
-}
+double Inserter::particle_mass(double r) const { return sphere_mass(prm_.density, r); }
 
 double Inserter::draw_radius(std::mt19937_64& rng) const {
   std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -134,11 +75,10 @@ std::vector<ParticleInit> Inserter::place_batch(const std::vector<Sphere>& obsta
   const int64_t want = st_.pending + fresh;
   ++st_.batch;
 
-  OverlapGrid grid(std::max(reach, 1e-12));
-  for (const auto& s : obstacles) grid.add(s.x, s.r);
+  SphereHash grid(std::max(reach, 1e-12));
+  for (const auto& s : obstacles) grid.add(s);
 
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  std::vector<int32_t> scratch;
   std::vector<ParticleInit> placed;
   int64_t unplaced = 0;
   for (int64_t k = 0; k < want; ++k) {
@@ -155,7 +95,7 @@ std::vector<ParticleInit> Inserter::place_batch(const std::vector<Sphere>& obsta
         x = {lo.x + r + (hi.x - lo.x - 2 * r) * u(rng), lo.y + r + (hi.y - lo.y - 2 * r) * u(rng),
              lo.z + r + (hi.z - lo.z - 2 * r) * u(rng)};
       }
-      ok = !grid.overlaps(x, r) && !touches_wall(walls, x, r, scratch) && !walls.crosses(x, {x.x, x.y, prm_.hi.z});
+      ok = !grid.overlaps(x, r) && !walls.touches(x, r) && !walls.crosses(x, {x.x, x.y, prm_.hi.z});
     }
     if (!ok) {
       ++unplaced;

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/particles.hpp"
+#include "core/spheres.hpp"
 #include "walls/wall_set.hpp"
 
 namespace mlcg {
@@ -38,12 +39,6 @@ struct InsertionParams {
   double follow_height = 0.0;    // height of the slab used when following the heap
   int max_attempts = 200;
   int max_stalled_batches = 50;
-};
-
-// A particle that candidates must not overlap.
-struct Sphere {
-  Vec3 x;
-  double r;
 };
 
 // One batch is computed in three steps so that every MPI rank can run the same

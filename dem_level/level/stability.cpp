@@ -2,15 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 #include <fmt/format.h>
 
-namespace mlcg {
+#include "core/spheres.hpp"
 
-namespace {
-double sphere_mass(double r, const Material& m) { return m.density * 4.0 / 3.0 * std::numbers::pi * r * r * r; }
-}  // namespace
+namespace mlcg {
 
 StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelSpec& lvl, const MaterialTable& mt,
                                 const std::vector<ParticleKind>& kinds, const std::vector<int>& wall_materials,
@@ -49,11 +46,11 @@ StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelS
     r.overlap_ratio = std::max(r.overlap_ratio, hertz_max_overlap(m_eff, r_eff, e_star, v) / r_small);
   };
   for (const auto& a : kinds) {
-    const double ma = sphere_mass(a.r_min, mt.material(a.material));
+    const double ma = sphere_mass(mt.material(a.material).density, a.r_min);
     for (const auto& b : kinds) {
       const auto& c = mt.pair(a.material, b.material);
       if (!c.defined) continue;
-      const double mb = sphere_mass(b.r_min, mt.material(b.material));
+      const double mb = sphere_mass(mt.material(b.material).density, b.r_min);
       consider(ma * mb / (ma + mb), a.r_min * b.r_min / (a.r_min + b.r_min), c.e_star, std::min(a.r_min, b.r_min));
     }
     for (int wm : wall_materials) {

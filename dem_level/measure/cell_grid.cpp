@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
+#include "core/spheres.hpp"
 #include "forces/contact_stats.hpp"
 
 namespace mlcg {
@@ -39,7 +39,7 @@ void CellGrid::local_sample(const Particles& p, const std::vector<double>& stres
     const double m = p.mass[i], r = p.radius[i];
     const Vec3& v = p.v[i];
     s[0] += m;
-    s[1] += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+    s[1] += sphere_volume(r);
     s[2] += 1.0;
     s[3] += m * v.x;
     s[4] += m * v.y;

@@ -87,7 +87,7 @@ bool WallSet::touches(const Vec3& x, double r) const {
     if (!info_[static_cast<size_t>(analytic_wall_[static_cast<size_t>(k)])].active) continue;
     if (analytic_[static_cast<size_t>(k)].closest(x, g) && g.dist < r) return true;
   }
-  std::vector<int32_t> tris;
+  thread_local std::vector<int32_t> tris;  // SSI asks this for every candidate: no allocation per call
   for (const auto& in : info_) {
     if (!in.is_mesh || !in.active) continue;
     meshes_[static_cast<size_t>(in.mesh)]->query(x, r, tris);
