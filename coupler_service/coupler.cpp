@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "core/time_steps.hpp"
+
 namespace mlcg::coupling {
 namespace {
 
@@ -21,8 +23,7 @@ Coupler::Coupler(CouplerConfig cfg, FitsGeometry fits) : cfg_(std::move(cfg)) {
   if (cfg_.levels.size() < 2) throw std::invalid_argument("coupler: a hierarchy needs at least two levels");
   if (!(cfg_.interval > 0.0)) throw std::invalid_argument("coupler: the coupling interval must be positive");
   for (const auto& l : cfg_.levels) {
-    const double n = cfg_.interval / l.dt;
-    if (!(l.dt > 0.0) || std::fabs(n - std::round(n)) > 1e-9 * n)
+    if (whole_steps(cfg_.interval, l.dt) == 0)
       throw std::invalid_argument("coupler: level '" + l.name + "' dt " + std::to_string(l.dt) +
                                   " s does not divide the coupling interval " + std::to_string(cfg_.interval) + " s");
   }

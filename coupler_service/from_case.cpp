@@ -16,8 +16,6 @@ MaterialTable materials_of(const config::CaseSpec& cs) {
   return MaterialTable(std::move(mats));
 }
 
-double level_dt(const config::LevelSpec& l) { return l.dt > 0.0 ? l.dt : l.dt_alpha1 * l.alpha; }
-
 // Cells with any of n^3 sample points reachable from `inside` without crossing a wall.
 std::vector<uint32_t> clipped_cells(const WallSet& walls, const Vec3& origin, double h, uint32_t nx, uint32_t ny,
                                     uint32_t nz, const Vec3& inside) {
@@ -47,7 +45,7 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
   cfg.seed = cs.seed;
   cfg.heartbeat = cp.heartbeat;
   cfg.timeout = cp.timeout;
-  for (const auto& l : cs.levels) cfg.levels.push_back({l.name, l.alpha, level_dt(l), static_cast<uint32_t>(l.ranks)});
+  for (const auto& l : cs.levels) cfg.levels.push_back({l.name, l.alpha, l.dt, static_cast<uint32_t>(l.ranks)});
 
   // Walls an event removes (an orifice lid) do not clip the grid or block insertion.
   const MaterialTable mt = materials_of(cs);
@@ -77,8 +75,12 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
   const double g = norm(cs.gravity), height = cs.domain.max.z - cs.domain.min.z;
 
   for (const auto& rs : cp.regions) {
-    const int lc = [&] { for (size_t l = 0; l < cs.levels.size(); ++l) if (cs.levels[l].name == rs.coarse) return int(l); return -1; }();
-    const int lf = [&] { for (size_t l = 0; l < cs.levels.size(); ++l) if (cs.levels[l].name == rs.fine) return int(l); return -1; }();
+    const auto index_of = [&](const std::string& name) {
+      for (size_t l = 0; l < cs.levels.size(); ++l)
+        if (cs.levels[l].name == name) return static_cast<int>(l);
+      return -1;
+    };
+    const int lc = index_of(rs.coarse), lf = index_of(rs.fine);
     if (lc < 0 || lf < 0) throw std::invalid_argument(rs.loc.str() + ": coupling region names an unknown level");
     const double ac = cs.levels[static_cast<size_t>(lc)].alpha, af = cs.levels[static_cast<size_t>(lf)].alpha;
     RegionConfig rc;

@@ -24,6 +24,14 @@ std::string bus_endpoint(const fs::path& run_dir) {
   return fmt::format("ipc:///tmp/mlcg-bus-{}.ipc", getpid());
 }
 
+// The level with the smallest alpha: its data are the best resolved.
+size_t finest_level(const config::CaseSpec& cs) {
+  size_t finest = 0;
+  for (size_t l = 0; l < cs.levels.size(); ++l)
+    if (cs.levels[l].alpha < cs.levels[finest].alpha) finest = l;
+  return finest;
+}
+
 nlohmann::json read_json(const fs::path& p) {
   std::ifstream in(p);
   if (!in) return nlohmann::json::object();
@@ -44,7 +52,7 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Gr
   s["reason"] = r.failed.empty() ? "" : r.failed + " exited with code " + std::to_string(r.exit_code);
   s["levels"] = nlohmann::json::array();
   double wall = 0.0;
-  size_t finest = 0;
+  const size_t finest = finest_level(cs);
   for (size_t l = 0; l < cs.levels.size(); ++l) {
     const auto j = read_json(run_dir / "levels" / cs.levels[l].name / "summary.json");
     nlohmann::json e = j.contains("levels") && !j["levels"].empty() ? j["levels"][0] : nlohmann::json::object();
@@ -54,7 +62,6 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Gr
     e["mass_balance"] = j.value("mass_balance", nlohmann::json::object());
     wall = std::max(wall, j.value("wall_seconds", 0.0));
     s["simulated_time"] = j.value("simulated_time", 0.0);
-    if (cs.levels[l].alpha < cs.levels[finest].alpha) finest = l;
     s["levels"].push_back(e);
   }
   const auto fine = read_json(run_dir / "levels" / cs.levels[finest].name / "summary.json");
@@ -91,9 +98,7 @@ int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, cons
   if (quiet) coupler.push_back("--quiet");
   children.push_back({"coupler", spawn(coupler)});
   // Progress lines come from the finest level; the others write their logs only.
-  size_t finest = 0;
-  for (size_t l = 0; l < cs.levels.size(); ++l)
-    if (cs.levels[l].alpha < cs.levels[finest].alpha) finest = l;
+  const size_t finest = finest_level(cs);
   for (size_t l = 0; l < cs.levels.size(); ++l) {
     const auto& lvl = cs.levels[l];
     std::vector<std::string> argv;
@@ -103,7 +108,7 @@ int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, cons
                              "--coupler", ep});
     if (quiet || l != finest) argv.push_back("--quiet");
     std::printf("mlcg: level '%s' (alpha %g, dt %g s, %d rank(s))\n", lvl.name.c_str(), lvl.alpha,
-                lvl.dt > 0.0 ? lvl.dt : lvl.dt_alpha1 * lvl.alpha, lvl.ranks);
+                lvl.dt, lvl.ranks);
     children.push_back({"level '" + lvl.name + "'", spawn(argv)});
   }
   std::fflush(stdout);

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "config/case_parser_detail.hpp"
+#include "core/time_steps.hpp"
 
 namespace mlcg::config::detail {
 
@@ -18,14 +19,9 @@ const char* const kAxis[3] = {"x", "y", "z"};
 
 constexpr double kMinFineSteps = 15.0;   // automatic interval: at least this many steps of the finest dt
 constexpr int kMaxMultiples = 10000;      // multiples of the largest dt tried before giving up
-constexpr double kDivideTolerance = 1e-9;  // relative tolerance of "dt divides the interval"
+constexpr double kReachTolerance = 1e-9;  // relative: a multiple this close below at_least reaches it
 
-// dt divides interval: interval / dt is a whole number >= 1 (within 1e-9 relative).
-bool divides(double dt, double interval) {
-  const double r = interval / dt;
-  const double k = std::round(r);
-  return k >= 1.0 && std::abs(r - k) < kDivideTolerance * r;
-}
+bool divides(double dt, double interval) { return whole_steps(interval, dt) > 0; }
 
 double largest_dt(const std::vector<LevelSpec>& levels) {
   double dt = 0.0;
@@ -47,7 +43,7 @@ std::optional<double> common_multiple(const std::vector<LevelSpec>& levels, doub
   const double first = std::max(1.0, std::floor(at_least / dt_max));
   for (int i = 0; i < kMaxMultiples; ++i) {
     const double c = (first + i) * dt_max;
-    if (c < at_least * (1.0 - kDivideTolerance)) continue;
+    if (c < at_least * (1.0 - kReachTolerance)) continue;
     if (std::all_of(levels.begin(), levels.end(), [&](const LevelSpec& l) { return divides(l.dt, c); })) return c;
   }
   return std::nullopt;

@@ -45,7 +45,7 @@ struct ContactSpec {               // [contact]
 struct LevelSpec {                 // [[levels]]
   std::string name = "level0";     // name
   double alpha = 1.0;              // alpha: coarse-grain ratio >= 1; radii of every insertion are scaled by it
-  double dt = 0.0;                 // dt > 0
+  double dt = 0.0;                 // dt > 0 (the parser resolves dt_alpha1 x alpha into it)
   int ranks = 1;                   // ranks >= 1 (MPI processes of this level)
   double skin = 0.0;               // skin >= 0 [m]; 0 = automatic (0.5 x largest level radius)
   double dt_alpha1 = 0.0;          // dt_alpha1 > 0: instead of dt, dt = dt_alpha1 x alpha (dt scales with alpha)

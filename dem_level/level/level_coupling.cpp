@@ -7,17 +7,16 @@
 // first step the level waits for the coupler's commands of k (insertion list,
 // traction, accelerations); after its last step it sends the statistics of k.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <limits>
-#include <numbers>
-#include <unordered_map>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "bus/case_hash.hpp"
+#include "core/spheres.hpp"
+#include "core/time_steps.hpp"
 #include "coupling/client.hpp"
 #include "coupling/grid_link.hpp"
 #include "level/level.hpp"
@@ -28,15 +27,6 @@ namespace mlcg {
 namespace {
 constexpr uint64_t kSamplesPerInterval = 2;  // cell samples per coupling interval (the last step always samples); each costs a stress step
 
-double wall_now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-// Steps per interval when dt divides the interval (1e-9 relative), else 0.
-uint64_t steps_per(double interval, double dt) {
-  const double r = interval / dt, k = std::round(r);
-  return k >= 1.0 && std::fabs(r - k) <= 1e-9 * r ? static_cast<uint64_t>(k) : 0;
-}
 }  // namespace
 
 struct Level::Coupled {
@@ -57,36 +47,24 @@ struct Level::Coupled {
 namespace {
 
 // Largest overlap / diameter of particles [first, n) with each other and with
-// every other local particle: one pass over the particles, new ones hashed.
+// every other local particle: the new ones hashed, one pass over their slab.
 double insert_overlap(const Particles& p, size_t first, double reach) {
   const size_t n = p.n_local();
   if (first >= n) return 0.0;
-  const double inv = 1.0 / reach;
-  const auto key = [inv](const Vec3& x, int dx, int dy, int dz) {
-    const auto c = [inv](double v, int d) { return static_cast<uint64_t>(static_cast<int64_t>(std::floor(v * inv)) + d) & 0x1fffff; };
-    return (c(x.x, dx) << 42) | (c(x.y, dy) << 21) | c(x.z, dz);
-  };
-  std::unordered_map<uint64_t, std::vector<size_t>> fresh;
+  SphereHash fresh(reach);
   double zlo = std::numeric_limits<double>::infinity(), zhi = -zlo;
   for (size_t i = first; i < n; ++i) {
-    fresh[key(p.x[i], 0, 0, 0)].push_back(i);
+    fresh.add(p.x[i], p.radius[i]);
     zlo = std::min(zlo, p.x[i].z - reach);
     zhi = std::max(zhi, p.x[i].z + reach);
   }
   double worst = 0.0;
   for (size_t j = 0; j < n; ++j) {
     if (p.x[j].z < zlo || p.x[j].z > zhi) continue;  // the new particles sit in a thin slab
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
-          const auto it = fresh.find(key(p.x[j], dx, dy, dz));
-          if (it == fresh.end()) continue;
-          for (size_t i : it->second) {
-            if (i == j) continue;
-            const double ov = p.radius[i] + p.radius[j] - norm(p.x[i] - p.x[j]);
-            worst = std::max(worst, ov / (2.0 * p.radius[i]));
-          }
-        }
+    fresh.find_near(p.x[j], p.radius[j], [&](size_t k, const Vec3& xi, double ri) {
+      if (first + k != j) worst = std::max(worst, (ri + p.radius[j] - norm(xi - p.x[j])) / (2.0 * ri));
+      return false;
+    });
   }
   return worst;
 }
@@ -99,7 +77,7 @@ void Level::connect_coupler() {
   const double interval_case = cs_.coupling ? cs_.coupling->interval : 0.0;
   uint64_t start = 0;
   if (step_ > 0) {  // continuing from a checkpoint: it must sit on an interval boundary
-    const uint64_t n = interval_case > 0.0 ? steps_per(interval_case, dt_) : 0;
+    const uint64_t n = interval_case > 0.0 ? whole_steps(interval_case, dt_) : 0;
     if (n == 0 || step_ % n != 0)
       throw std::runtime_error(fmt::format("level '{}': the checkpoint at step {} is not at the end of a coupling "
                                            "interval of the case's [coupling] ({} s = {} steps)",
@@ -131,7 +109,7 @@ void Level::connect_coupler() {
   log_->info("level '{}': registering with the coupler at {} (interval {})", lvl_.name, o.endpoint, start);
   const bus::Welcome w = c->client->handshake(reg);
 
-  c->steps = steps_per(w.coupling_interval(), dt_);
+  c->steps = whole_steps(w.coupling_interval(), dt_);
   if (c->steps == 0)
     throw std::runtime_error(fmt::format("level '{}': the coupler's interval {} s is not a whole multiple of dt = {} s",
                                          lvl_.name, w.coupling_interval(), dt_));
@@ -165,7 +143,7 @@ void Level::connect_coupler() {
 void Level::coupling_begin_step() {
   Coupled& c = *coupled_;
   if (c.done != 0 || c.finished) return;
-  c.wall0 = wall_now();
+  c.wall0 = wall_seconds();
   bus::IntervalCommands cmd;
   {
     PhaseTimer t(times_.coupling_wait);
@@ -201,7 +179,7 @@ void Level::coupling_begin_step() {
       const size_t first_new = p_.n_local();
       double r_big = 0.0;
       for (const auto& pi : list) {
-        mass += pi.density * 4.0 / 3.0 * std::numbers::pi * pi.radius * pi.radius * pi.radius;
+        mass += sphere_mass(pi.density, pi.radius);
         r_big = std::max(r_big, pi.radius);
         if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
       }
@@ -294,7 +272,7 @@ void Level::coupling_end_step() {
     s.set_sim_time(time());
     for (auto& g : c.grids) *s.add_grids() = g.finish(p_, comm_, r_max_);
     s.set_particles(static_cast<uint64_t>(comm_.sum(static_cast<int64_t>(p_.n_local()))));
-    s.set_wall_seconds(wall_now() - c.wall0);
+    s.set_wall_seconds(wall_seconds() - c.wall0);
     c.client->send_stats(s);
   }
   if (c.checkpoint && !opt_.out_dir.empty()) {

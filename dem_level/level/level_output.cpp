@@ -17,9 +17,6 @@
 namespace mlcg {
 
 namespace {
-double now_seconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 std::string human_duration(double s) {
   if (!std::isfinite(s) || s < 0) return "?";
   if (s < 60) return fmt::format("{:.0f} s", s);
@@ -31,7 +28,7 @@ constexpr const char* kSeriesHeader =
 }  // namespace
 
 RunStatus Level::run() {
-  wall_start_ = now_seconds();
+  wall_start_ = wall_seconds();
   const double half = 0.5 * dt_;
   if (opt_.restart.empty()) {
     const auto& o = cs_.output;
@@ -201,7 +198,7 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
   comm_.sum_in_place(sums, 12);
   const CouplingReport cr = coupling_report();
   if (comm_.rank() != 0) return;
-  const double wall = wall_seconds_before_ + (now_seconds() - wall_start_);
+  const double wall = wall_seconds_before_ + (wall_seconds() - wall_start_);
   json j;
   j["status"] = status;
   j["reason"] = reason;
@@ -271,7 +268,7 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
 
 void Level::progress(bool force) {
   if (opt_.quiet || comm_.rank() != 0) return;
-  const double now = now_seconds();
+  const double now = wall_seconds();
   if (!force && now - last_progress_ < cs_.time.progress_interval) return;
   const double wall = now - wall_start_;
   const double t = time();

@@ -7,9 +7,9 @@
 #include <fmt/format.h>
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_sinks.h>
-#include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "core/spheres.hpp"
 #include "io/grid_series.hpp"
 #include "io/h5.hpp"
 #include "io/snapshot_series.hpp"
@@ -71,7 +71,6 @@ void Level::setup() {
     }
     lvl_ = *it;
   }
-  if (lvl_.dt_alpha1 > 0.0) lvl_.dt = lvl_.dt_alpha1 * lvl_.alpha;
   dt_ = lvl_.dt;
   alpha_ = lvl_.alpha;
   fctx_.dt = dt_;
@@ -128,7 +127,7 @@ void Level::setup() {
     explicit_kinds.push_back({pi.material, pi.radius, pi.radius, norm(pi.v)});
     if (!fills_scene) continue;
     ++explicit_count_;
-    explicit_mass_ += pi.density * 4.0 / 3.0 * std::numbers::pi * pi.radius * pi.radius * pi.radius;
+    explicit_mass_ += sphere_mass(pi.density, pi.radius);
     if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
   if (cs_.initial) load_initial_state(explicit_kinds, fills_scene && opt_.restart.empty());
@@ -310,7 +309,7 @@ void Level::load_initial_state(std::vector<ParticleKind>& kinds, bool add) {
     kind.r_max = std::max(kind.r_max, pi.radius);
     kind.speed = std::max(kind.speed, norm(pi.v));
     ++explicit_count_;
-    explicit_mass_ += pi.density * 4.0 / 3.0 * std::numbers::pi * pi.radius * pi.radius * pi.radius;
+    explicit_mass_ += sphere_mass(pi.density, pi.radius);
     next_id_ = std::max(next_id_, pi.id + 1);
     if (add && dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }

@@ -1,8 +1,13 @@
 #pragma once
-// Adds the wall time of a scope to an accumulator (seconds).
+// Wall-clock time for the level's reports: a monotonic clock in seconds, and a
+// scope timer that adds its wall time to an accumulator.
 #include <chrono>
 
 namespace mlcg {
+
+inline double wall_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
 
 class PhaseTimer {
  public:
