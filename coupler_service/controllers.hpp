@@ -14,7 +14,7 @@ namespace mlcg::coupling {
 // boundary only pushes). Anti-windup by conditional integration: the integral
 // does not grow while the output is saturated in the error's direction.
 struct PiController {
-  double kp = 0.5, ki = 50.0, limit = 1e4;
+  double kp = 0.5, ki = 200.0, limit = 1e4;
   double integral = 0.0;  // Pa s
   double output = 0.0;    // Pa
 

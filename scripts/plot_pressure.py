@@ -5,11 +5,14 @@ and without the PI controller).
 
 usage: scripts/plot_pressure.py OUT.png LABEL=GRID_DIR [LABEL=GRID_DIR ...]
        [--z 0.05] [--cells -0.02,0.02,-0.02,0.02] [--until T]
+       [--window NAME:T0:T1 ...]
 
 GRID_DIR is a run's grids/<name> folder (index.json + <name>_NNNNNN.h5).
 The pressure is (s_xx + s_yy + s_zz) / 3 averaged over the cells whose centre
 lies in the layer containing height z and inside the x/y window. Writes OUT.png
-and OUT.csv (time, one column per run). Needs Debian's python3-h5py and
+and OUT.csv (time, one column per run). With --window, prints and writes to
+OUT_windows.csv each run's mean pressure over [T0, T1] and its deviation from
+the first run's (the reference) over the same window. Needs Debian's python3-h5py and
 python3-matplotlib (run with /usr/bin/python3).
 """
 import argparse
@@ -55,6 +58,7 @@ def main():
     ap.add_argument("--z", type=float, default=0.05, help="a height inside the layer [m]")
     ap.add_argument("--cells", default="-0.02,0.02,-0.02,0.02", help="xmin,xmax,ymin,ymax of the cell centres [m]")
     ap.add_argument("--until", type=float, default=None, help="last time to plot [s]")
+    ap.add_argument("--window", action="append", default=[], help="NAME:T0:T1, a time window to compare [s]")
     a = ap.parse_args()
     window = [float(v) for v in a.cells.split(",")]
     import matplotlib
@@ -86,6 +90,29 @@ def main():
             for ti, pi in zip(t, p):
                 f.write(f"{label},{ti:.6g},{pi:.6g}\n")
     os.replace(base + ".csv.tmp", base + ".csv")
+    if a.window:
+        write_windows(base + "_windows.csv", cols, a.window)
+
+
+def write_windows(path, cols, windows):
+    """Mean pressure of each run per window, and its deviation from the first run's."""
+    labels = list(cols)
+    rows = ["window,t0_s,t1_s,label,mean_pa,deviation_from_" + labels[0].replace(",", " ")]
+    for spec in windows:
+        name, t0, t1 = spec.split(":")
+        t0, t1 = float(t0), float(t1)
+        means = {}
+        for label, (t, p) in cols.items():
+            keep = (t >= t0 - 1e-12) & (t <= t1 + 1e-12)
+            means[label] = float(p[keep].mean()) if keep.any() else float("nan")
+        ref = means[labels[0]]
+        for label in labels:
+            dev = (means[label] - ref) / ref if ref else float("nan")
+            rows.append(f"{name},{t0:g},{t1:g},{label},{means[label]:.4g},{dev:+.4f}")
+            print(f"{name:>10} [{t0:g}, {t1:g}] s  {label:>24}: {means[label]:8.1f} N/m2  {100 * dev:+6.1f} %")
+    with open(path + ".tmp", "w") as f:
+        f.write("\n".join(rows) + "\n")
+    os.replace(path + ".tmp", path)
 
 
 if __name__ == "__main__":

@@ -82,7 +82,7 @@ TEST(CaseParser, TwoLevelCaseTakesCouplingDefaults) {
   EXPECT_DOUBLE_EQ(r.insert_depth, 0.0);
   EXPECT_DOUBLE_EQ(r.fade, 1.5);
   EXPECT_DOUBLE_EQ(r.kp, 0.5);
-  EXPECT_DOUBLE_EQ(r.ki, 50.0);
+  EXPECT_DOUBLE_EQ(r.ki, 200.0);
   EXPECT_DOUBLE_EQ(r.traction_limit, 0.0);
   EXPECT_EQ(r.correct, "mass_flow");
   EXPECT_DOUBLE_EQ(r.velocity_gain, 500.0);
@@ -270,6 +270,7 @@ TEST(CaseParserErrors, CouplingValueRanges) {
   bad("fade = 0", "fade", "0 is not > 0");
   bad("kp = -1", "kp", "is negative");
   bad("ki = -1", "ki", "is negative");
+  bad("ki = 1e5", "ki", "would ring; give at most 31250 1/s");
   bad("traction_limit = -1", "traction_limit", "is negative");
   bad("correct = \"mass-flow\"", "correct", "(did you mean 'mass_flow'?); allowed: mass_flow, velocity, none");
   bad("velocity_gain = 0", "velocity_gain", "0 is not > 0");

@@ -249,8 +249,9 @@ TEST(Coupler, OneIntervalGivesInsertionTractionAndCorrection) {
   EXPECT_EQ(fine.insert_size() % 7, 0);
   EXPECT_TRUE(fine.want_occupants()) << "mass keeps crossing: the next plan needs the slab's particles";
   // The fine stress is below the coarse setpoint: positive traction (push down), 0.4 m/s limit.
+  const PiController gains;  // the case leaves kp and ki at their defaults
   for (int f = 0; f < 9; ++f) {
-    EXPECT_NEAR(fine.traction(f), 0.5 * 100.0 + 50.0 * 100.0 * 8e-5, 1e-9);
+    EXPECT_NEAR(fine.traction(f), gains.kp * 100.0 + gains.ki * 100.0 * 8e-5, 1e-9);
     EXPECT_DOUBLE_EQ(fine.speed_limit(f), 0.4);
   }
   // Coarse correction cells (the lower layer only): mass flow target 1.2 x -0.12 = -0.144 m/s.

@@ -200,7 +200,11 @@ TEST(ControllerForces, TractionOfACellSumsToTh2AndFadesToZero) {
   }
 }
 
-TEST(ControllerForces, ASparseLayerGetsNoMoreForcePerParticleThanAPackedOne) {
+// Weight of the sparsest layer that takes the whole traction (volume fraction 0.4, flush with the
+// boundary, so its centres lie one radius r or more below it) over a cell of side h, fade depth D.
+double floor_weight(double h, double D, double r) { return 0.4 * h * h * (D - r) * (D - r) / (2.0 * D); }
+
+TEST(ControllerForces, ASparseLayerGetsNoMoreForcePerParticleThanALooseLayer) {
   auto grid = make_grid({0, 0, 0}, 0.01, 1, 1, 1);
   grid.set_fade_depth(0.003);
   const bus::CouplingGeometry geo(grid);
@@ -211,8 +215,7 @@ TEST(ControllerForces, ASparseLayerGetsNoMoreForcePerParticleThanAPackedOne) {
   cf.normalise(p, Comm{});
   p.clear_forces();
   cf.apply(p);
-  // Spread as over a loosely packed fade zone (volume fraction 0.55): weight 0.55 h^2 D / 2.
-  const double w = 4.0 / 3.0 * M_PI * 1.25e-10 * (1.0 - 1.0 / 3.0), packed = 0.55 * 1e-4 * 0.5 * 0.003;
+  const double w = 4.0 / 3.0 * M_PI * 1.25e-10 * (1.0 - 1.0 / 3.0), packed = floor_weight(0.01, 0.003, 5e-4);
   EXPECT_NEAR(p.f[0].z, -200.0 * 1e-4 * w / packed, 1e-12);
   EXPECT_LT(std::fabs(p.f[0].z), 0.01 * 200.0 * 1e-4) << "not the whole traction on one particle";
 }
@@ -231,9 +234,9 @@ TEST(ControllerForces, SpeedLimitRemovesTheAcceleratingComponent) {
   cf.normalise(p, Comm{});
   p.clear_forces();
   cf.apply(p);
-  // Equal weights w, spread over at least a loosely packed fade zone (see the sparse-layer test).
+  // Equal weights w, spread over at least a loose layer (see the sparse-layer test).
   const double w = 4.0 / 3.0 * M_PI * 1.25e-10 * 0.75;
-  const double full = -500.0 * 1e-4 * w / std::max(4.0 * w, 0.55 * 1e-4 * 0.5 * 0.004);
+  const double full = -500.0 * 1e-4 * w / std::max(4.0 * w, floor_weight(0.01, 0.004, 5e-4));
   EXPECT_EQ(p.f[0], Vec3{});
   EXPECT_NEAR(p.f[1].z, full, 1e-12 * std::fabs(full));
   EXPECT_NEAR(dot(p.f[2], p.v[2]), 0.0, 1e-15);

@@ -184,6 +184,10 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
             num(g.velocity_gain) + " 1/s x the coupling interval " + num(c.interval) + " s = " +
                 num(g.velocity_gain * c.interval) + " would overshoot; give at most " + num(0.5 / c.interval) +
                 " 1/s, or a shorter interval");
+    // The integral acts once per interval on a stress that answers within it: ki x interval near 1 rings.
+    r.check("ki", g.ki * c.interval <= 0.5,
+            num(g.ki) + " 1/s x the coupling interval " + num(c.interval) + " s = " + num(g.ki * c.interval) +
+                " would ring; give at most " + num(0.5 / c.interval) + " 1/s, or a shorter interval");
     const auto [it, fresh] = fine_of.emplace(g.fine, r.path() + ", line " + std::to_string(r.line("fine")));
     if (!fresh)
       r.fail("fine", "level '" + g.fine + "' is already the fine level of " + it->second +

@@ -200,7 +200,7 @@ struct CouplingRegionSpec {        // [[coupling.regions]] one fine region insid
                                    //   are inserted; 0 = automatic (2 coarse diameters, at most one cell)
   double fade = 1.5;               // fade > 0 [fine diameters]: the PI traction fades out over this depth
   double kp = 0.5;                 // kp >= 0: PI proportional gain [Pa traction per Pa stress error]
-  double ki = 50.0;                // ki >= 0 [1/s]: PI integral gain
+  double ki = 200.0;               // ki >= 0, ki x interval <= 0.5 [1/s]: PI integral gain
   double traction_limit = 0.0;     // traction_limit [Pa] >= 0: largest |traction|; 0 = automatic
                                    //   (density x |g| x domain height: a full column of solid)
   std::string correct = "mass_flow";  // correct: "mass_flow" | "velocity" | "none" (coarse correction cells)

@@ -9,7 +9,10 @@
 namespace mlcg::coupling {
 
 namespace {
-constexpr double kPhiPacked = 0.55;  // random loose packing of spheres
+// Volume fraction of the sparsest layer that still takes its full share of the traction. Below it
+// a particle takes no more than its share in such a layer (a few particles never carry the whole
+// traction); a loose bed (about 0.55) lies above it, so a bed carries the whole traction.
+constexpr double kPhiFloor = 0.4;
 }  // namespace
 
 ControllerForces::ControllerForces(const bus::CouplingGeometry& geo)
@@ -55,18 +58,25 @@ double ControllerForces::weight(const Vec3& x, double r, int& face) const {
 }
 
 void ControllerForces::normalise(const Particles& p, const Comm& comm) {
-  wsum_.assign(geo_.faces(), 0.0);
+  const size_t nf = geo_.faces();
+  wsum_.assign(nf, 0.0);
   if (!traction_on_) return;  // the same on every rank: the commands are
+  std::vector<double> sums(nf + 2, 0.0);  // weights per face, then sum of radii and count in the zone
   for (size_t i = 0; i < p.n_local(); ++i) {
     int f = -1;
     const double w = weight(p.x[i], p.radius[i], f);
-    if (f >= 0) wsum_[static_cast<size_t>(f)] += w;
+    if (f < 0) continue;
+    sums[static_cast<size_t>(f)] += w;
+    sums[nf] += p.radius[i];
+    sums[nf + 1] += 1.0;
   }
-  comm.sum_in_place(wsum_.data(), wsum_.size());
-  // A sparse layer takes no more force per particle than a packed one would: the traction is
-  // spread as if the fade zone held at least a loosely packed layer (volume fraction kPhiPacked).
-  const double packed = kPhiPacked * area_ * 0.5 * depth_;
-  for (auto& w : wsum_) w = std::max(w, packed);
+  comm.sum_in_place(sums.data(), sums.size());
+  // The floor is the weight of a layer at kPhiFloor flush with the boundary: its centres lie one
+  // radius or more below the surface, so it weighs phi h^2 (D - r)^2 / (2 D), not phi h^2 D / 2.
+  const double r = sums[nf + 1] > 0.0 ? sums[nf] / sums[nf + 1] : 0.0;
+  const double reach = std::max(depth_ - r, 0.5 * depth_);
+  const double floor = kPhiFloor * area_ * reach * reach / (2.0 * depth_);
+  for (size_t f = 0; f < nf; ++f) wsum_[f] = std::max(sums[f], floor);
 }
 
 void ControllerForces::refresh(const Particles& p, double band) {
