@@ -61,8 +61,13 @@ std::string value_text(const toml::node& v) {
   if (auto i = v.value_exact<int64_t>()) return std::to_string(*i);
   if (auto d = v.value_exact<double>()) return fmt::format("{:g}", *d);
   if (auto s = v.value_exact<std::string>()) return *s;
+  if (const auto* a = v.as_array()) {
+    std::vector<std::string> items;
+    for (const auto& e : *a) items.push_back(value_text(e));
+    return "[" + join(items) + "]";
+  }
   std::ostringstream ss;
-  v.visit([&](const auto& x) { ss << x; });  // arrays and tables as TOML
+  v.visit([&](const auto& x) { ss << x; });  // a table as TOML
   return ss.str();
 }
 
@@ -189,6 +194,7 @@ void add_sweep(const Reader& r, const toml::table& t, const std::string& path, c
     v.label = label + " = " + v.sweep_value;
     v.derived = true;
     v.case_file = (folder / "cases" / (v.name + ".toml")).string();
+    v.run = folder / v.name;
     v.where = fmt::format("{}:{}", r.file, key_line);
     toml::table d = doc;
     try {
