@@ -55,17 +55,31 @@ void print_summary(const fs::path& run_dir) {
               run_dir.c_str());
 }
 
-int run_case(const std::string& case_file, std::string out_dir, bool quiet) {
+int run_case(const std::string& case_file, std::string out_dir, bool quiet, const std::string& hosts, bool curve) {
   config::CaseSpec cs;
+  launcher::Placement placement;
   try {
     cs = config::load_case(case_file);
-  } catch (const config::CaseError& e) {
+    if (!hosts.empty() && cs.levels.size() < 2)
+      throw std::runtime_error("--hosts places the coupler and the levels of a multi-level case; " + case_file +
+                               " has one level (start it with mpirun --hostfile)");
+    if (!hosts.empty()) placement = launcher::Placement(launcher::read_hostfile(hosts), cs);
+    if (curve) placement.enable_curve();
+    placement.check(cs);
+  } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
   if (out_dir.empty()) out_dir = default_run_dir(case_file);
   fs::create_directories(out_dir);
-  if (cs.levels.size() > 1) return launcher::run_hierarchy(cs, case_file, out_dir, quiet);
+  if (cs.levels.size() > 1) {
+    try {
+      return launcher::run_hierarchy(cs, case_file, out_dir, quiet, placement);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "mlcg: error: %s\n", e.what());
+      return 1;
+    }
+  }
   const auto& lvl = cs.levels.front();
   std::vector<std::string> argv;
   if (lvl.ranks > 1) argv = launcher::mpirun_prefix(lvl.ranks);
@@ -93,7 +107,12 @@ int main(int argc, char** argv) {
   run->add_option("case", case_file, "case file (TOML)")->required()->check(CLI::ExistingFile);
   run->add_option("--out", out_dir, "run folder (default runs/<case>-<date>)");
   run->add_flag("--quiet", quiet, "no progress lines");
+  std::string hosts;
+  bool curve = false;
+  run->add_option("--hosts", hosts, "place the coupler and the levels on these hosts (README: Runs across hosts); "
+                                   "turns CURVE on")->check(CLI::ExistingFile);
+  run->add_flag("--curve", curve, "secure the bus with CURVE keys issued for this run (in <run>/keys)");
   CLI11_PARSE(app, argc, argv);
-  if (run->parsed()) return run_case(case_file, out_dir, quiet);
+  if (run->parsed()) return run_case(case_file, out_dir, quiet, hosts, curve);
   return 0;
 }
