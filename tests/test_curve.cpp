@@ -105,6 +105,20 @@ TEST(Curve, ClientWithANonIssuedKeyCannotRegisterAndIsLogged) {
   EXPECT_NE(log.find(rogue.public_key + " was not issued for this run"), std::string::npos) << log;
 }
 
+TEST(Curve, AnIssuedKeySpeaksOnlyForItsOwner) {
+  const curve::KeyPair coarse = curve::generate(), fine = curve::generate();
+  Server srv({{"coarse", coarse.public_key}, {"fine", fine.public_key}});
+  zmq::context_t cctx;
+  const curve::SocketKeys ck{coarse, srv.keys.own.public_key};
+  Channel dealer(cctx, Channel::Role::Dealer, srv.ch.endpoint(), "fine", kDefaultMaxBytes, &ck);  // coarse's key
+  dealer.socket().set(zmq::sockopt::linger, 0);
+  dealer.send(hello("fine"));
+  auto in = srv.ch.receive(milliseconds(3000));
+  ASSERT_TRUE(in);
+  EXPECT_FALSE(in->ok()) << "a level registered with another level's key";
+  EXPECT_EQ(in->error, "the CURVE key issued to 'coarse' was used by 'fine'");
+}
+
 TEST(Curve, ClientWithoutKeysCannotRegisterAndIsLogged) {
   Server srv({{"fine", curve::generate().public_key}});
   zmq::context_t cctx;

@@ -102,6 +102,12 @@ std::optional<Incoming> Channel::receive(std::chrono::milliseconds timeout) {
     in.error = "expected " + std::to_string(want) + " frame(s), got " + std::to_string(parts.size());
     return in;
   }
+  // CURVE: the authenticator names the issued key's owner (User-Id); a peer may only speak as itself.
+  if (role_ == Role::Router)
+    if (const char* uid = zmq_msg_gets(parts.back().handle(), "User-Id"); uid && *uid && in.peer != uid) {
+      in.error = "the CURVE key issued to '" + std::string(uid) + "' was used by '" + in.peer + "'";
+      return in;
+    }
   Decoded d = decode(parts.back().data(), parts.back().size(), max_bytes_);
   in.env = std::move(d.env);
   in.error = std::move(d.error);
