@@ -13,6 +13,7 @@
 #include "bus/case_hash.hpp"
 #include "config/case_parser.hpp"
 #include "from_case.hpp"
+#include "io/atomic_file.hpp"
 #include "service.hpp"
 
 int main(int argc, char** argv) {
@@ -25,6 +26,10 @@ int main(int argc, char** argv) {
   app.add_option("--endpoint", endpoint, "ZeroMQ endpoint to bind (default: the case's, else ipc://<out>/bus.ipc)");
   app.add_option("--max-intervals", max_intervals, "stop the levels after this many coupling intervals");
   app.add_flag("--quiet", quiet, "log to the file only");
+  std::string curve_key, curve_clients, endpoint_file;  // CURVE on the bus (bus/curve.hpp)
+  app.add_option("--curve-server-key", curve_key, "CURVE: this coupler's keypair file (with --curve-clients)");
+  app.add_option("--curve-clients", curve_clients, "CURVE: the client public keys to accept (NAME KEY lines)");
+  app.add_option("--endpoint-file", endpoint_file, "write the endpoint actually bound here (tcp://HOST:* picks a port)");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -46,7 +51,13 @@ int main(int argc, char** argv) {
     if (endpoint.empty()) endpoint = cs.coupling->endpoint;
     if (endpoint.empty()) endpoint = "ipc://" + (std::filesystem::absolute(out_dir) / "bus.ipc").string();
     zmq::context_t ctx;
-    mlcg::bus::Channel channel(ctx, mlcg::bus::Channel::Role::Router, endpoint, {});
+    const auto curve = mlcg::bus::curve::server_from_files(
+        ctx, curve_key, curve_clients, [log](const std::string& s) { log->warn("{}", s); },
+        [log](const std::string& s) { log->info("{}", s); });
+    mlcg::bus::Channel channel(ctx, mlcg::bus::Channel::Role::Router, endpoint, {}, mlcg::bus::kDefaultMaxBytes,
+                               curve ? &curve->keys : nullptr);
+    if (curve) curve->auth->watch(channel.socket());
+    if (!endpoint_file.empty()) mlcg::io::write_file_atomic(endpoint_file, channel.endpoint() + "\n");
     mlcg::coupling::ServiceOptions opt;
     opt.case_hash = mlcg::bus::case_hash(case_file);
     opt.out_dir = out_dir;

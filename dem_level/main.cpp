@@ -9,6 +9,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "bus/curve.hpp"
 #include "config/case_parser.hpp"
 #include "level/level.hpp"
 
@@ -24,6 +25,9 @@ int main(int argc, char** argv) {
   app.add_flag("--quiet", quiet, "no progress lines on the console");
   app.add_option("--level", level_name, "the [[levels]] entry to run (name; default: the first)");
   app.add_option("--coupler", coupler, "coupler endpoint (tcp://HOST:PORT or ipc://PATH): run coupled");
+  std::string curve_server, curve_client;  // CURVE on the bus (bus/curve.hpp)
+  app.add_option("--curve-server-public", curve_server, "CURVE: the coupler's public key file (with --curve-client-key)");
+  app.add_option("--curve-client-key", curve_client, "CURVE: this level's keypair file, issued by mlcg");
   CLI11_PARSE(app, argc, argv);
 
   MPI_Init(&argc, &argv);
@@ -44,6 +48,8 @@ int main(int argc, char** argv) {
     if (ranks != lvl->ranks)
       throw std::runtime_error("dem_level was started on " + std::to_string(ranks) + " MPI ranks but level '" +
                                lvl->name + "' of the case asks for " + std::to_string(lvl->ranks));
+    if (auto keys = mlcg::bus::curve::client_from_files(curve_server, curve_client))
+      mlcg::bus::curve::set_process_keys(*keys);
     mlcg::install_signal_handlers();
     mlcg::LevelOptions opt;
     opt.out_dir = out_dir;

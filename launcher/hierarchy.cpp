@@ -87,26 +87,31 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Gr
 
 }  // namespace
 
-int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet) {
+int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet,
+                  Placement placement) {
   const fs::path run_dir(out_dir);
-  const std::string ep = !cs.coupling->endpoint.empty() ? cs.coupling->endpoint : bus_endpoint(run_dir);
+  std::string ep = !cs.coupling->endpoint.empty() ? cs.coupling->endpoint : bus_endpoint(run_dir);
+  ep = placement.prepare(cs, run_dir, ep);  // hosts / CURVE hook (hosts.hpp)
   const fs::path bin(own_directory());
-  std::printf("mlcg: case %s, %zu levels coupled over %s; run folder %s\n", case_file.c_str(), cs.levels.size(),
-              ep.c_str(), out_dir.c_str());
+  std::printf("mlcg: case %s, %zu levels coupled over %s; run folder %s\n%s", case_file.c_str(), cs.levels.size(),
+              ep.c_str(), out_dir.c_str(), placement.describe().c_str());
   std::vector<NamedChild> children;
-  std::vector<std::string> coupler{(bin / "coupler_service").string(), case_file, "--out", out_dir, "--endpoint", ep};
+  std::vector<std::string> coupler = placement.launch_prefix("coupler", 1);
+  coupler.insert(coupler.end(), {(bin / "coupler_service").string(), case_file, "--out", out_dir, "--endpoint", ep});
   if (quiet) coupler.push_back("--quiet");
+  for (auto& a : placement.extra_args("coupler")) coupler.push_back(a);
   children.push_back({"coupler", spawn(coupler)});
+  ep = placement.bound_endpoint(children.back().pid);  // tcp://HOST:* resolved to the coupler's port
   // Progress lines come from the finest level; the others write their logs only.
   const size_t finest = finest_level(cs);
   for (size_t l = 0; l < cs.levels.size(); ++l) {
     const auto& lvl = cs.levels[l];
-    std::vector<std::string> argv;
-    if (lvl.ranks > 1) argv = mpirun_prefix(lvl.ranks);
+    std::vector<std::string> argv = placement.launch_prefix(lvl.name, lvl.ranks);
     argv.push_back((bin / "dem_level").string());
     argv.insert(argv.end(), {case_file, "--out", (run_dir / "levels" / lvl.name).string(), "--level", lvl.name,
                              "--coupler", ep});
     if (quiet || l != finest) argv.push_back("--quiet");
+    for (auto& a : placement.extra_args(lvl.name)) argv.push_back(a);
     std::printf("mlcg: level '%s' (alpha %g, dt %g s, %d rank(s))\n", lvl.name.c_str(), lvl.alpha,
                 lvl.dt, lvl.ranks);
     children.push_back({"level '" + lvl.name + "'", spawn(argv)});

@@ -19,6 +19,11 @@ int main(int argc, char** argv) {
   run->add_option("case", case_file, "case file (TOML)")->required()->check(CLI::ExistingFile);
   run->add_option("--out", out_dir, "run folder (default runs/<case>-<date>)");
   run->add_flag("--quiet", quiet, "no progress lines");
+  std::string hosts;
+  bool curve = false;
+  run->add_option("--hosts", hosts, "place the coupler and the levels on these hosts (README: Runs across hosts); "
+                                   "turns CURVE on")->check(CLI::ExistingFile);
+  run->add_flag("--curve", curve, "secure the bus with CURVE keys issued for this run (in <run>/keys)");
   auto* study = app.add_subcommand("study", "error against run time: run a case folder's variants and compare them");
   launcher::StudyOptions so;
   bool no_plots = false;
@@ -30,7 +35,7 @@ int main(int argc, char** argv) {
   study->add_flag("--quiet", so.quiet, "no progress lines from the runs");
   study->add_flag("--no-plots", no_plots, "write study.csv and study.md only");
   CLI11_PARSE(app, argc, argv);
-  if (run->parsed()) return launcher::run_case(case_file, out_dir, quiet);
+  if (run->parsed()) return launcher::run_case(case_file, out_dir, quiet, hosts, curve);
   so.plots = !no_plots;
   if (study->parsed()) return launcher::run_study(so);
   return 0;

@@ -6,12 +6,14 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "config/case_parser.hpp"
 #include "hierarchy.hpp"
+#include "hosts.hpp"
 #include "process.hpp"
 
 namespace fs = std::filesystem;
@@ -55,17 +57,31 @@ void print_summary(const fs::path& run_dir) {
 
 }  // namespace
 
-int run_case(const std::string& case_file, std::string out_dir, bool quiet) {
+int run_case(const std::string& case_file, std::string out_dir, bool quiet, const std::string& hosts, bool curve) {
   config::CaseSpec cs;
+  launcher::Placement placement;
   try {
     cs = config::load_case(case_file);
-  } catch (const config::CaseError& e) {
+    if (!hosts.empty() && cs.levels.size() < 2)
+      throw std::runtime_error("--hosts places the coupler and the levels of a multi-level case; " + case_file +
+                               " has one level (start it with mpirun --hostfile)");
+    if (!hosts.empty()) placement = launcher::Placement(launcher::read_hostfile(hosts), cs);
+    if (curve) placement.enable_curve();
+    placement.check(cs);
+  } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
   if (out_dir.empty()) out_dir = default_run_dir(case_file);
   fs::create_directories(out_dir);
-  if (cs.levels.size() > 1) return launcher::run_hierarchy(cs, case_file, out_dir, quiet);
+  if (cs.levels.size() > 1) {
+    try {
+      return launcher::run_hierarchy(cs, case_file, out_dir, quiet, placement);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "mlcg: error: %s\n", e.what());
+      return 1;
+    }
+  }
   const auto& lvl = cs.levels.front();
   std::vector<std::string> argv;
   if (lvl.ranks > 1) argv = launcher::mpirun_prefix(lvl.ranks);

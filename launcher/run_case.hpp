@@ -6,7 +6,10 @@
 namespace mlcg::launcher {
 
 // Runs the case into out_dir (default runs/<case>-<date>). Returns the run's exit code:
-// 0 completed, 2 the case was refused, else the code of the process that failed.
-int run_case(const std::string& case_file, std::string out_dir, bool quiet);
+// 0 completed, 2 the case or the hostfile was refused, else the code of the process that failed.
+// hosts: an Open MPI style hostfile placing the coupler and the levels (README: Runs across
+// hosts; turns CURVE on); curve: secure the bus with keys issued for this run.
+int run_case(const std::string& case_file, std::string out_dir, bool quiet, const std::string& hosts = "",
+             bool curve = false);
 
 }  // namespace mlcg::launcher

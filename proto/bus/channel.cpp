@@ -52,7 +52,7 @@ const char* body_name(const Envelope& env) {
 }
 
 Channel::Channel(zmq::context_t& ctx, Role role, const std::string& endpoint, const std::string& identity,
-                 size_t max_bytes)
+                 size_t max_bytes, const curve::SocketKeys* keys)
     : role_(role), identity_(identity), max_bytes_(max_bytes),
       sock_(ctx, role == Role::Router ? zmq::socket_type::router : zmq::socket_type::dealer) {
   // A level's last message (Bye) must reach the coupler after the socket closes;
@@ -61,6 +61,9 @@ Channel::Channel(zmq::context_t& ctx, Role role, const std::string& endpoint, co
   // Hard cap far above the checked one: a flood is cut off by ZeroMQ, a merely
   // oversized message still arrives and is refused with a logged reason.
   sock_.set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(4 * max_bytes + 4096));
+  if (!keys) keys = curve::process_keys();
+  curve::require_curve_for(endpoint, keys != nullptr, curve::kHowToEnable);
+  if (keys) curve::apply(sock_, *keys, role == Role::Router);
   if (role == Role::Router) {
     sock_.set(zmq::sockopt::router_mandatory, 1);
     sock_.bind(endpoint);
@@ -99,6 +102,12 @@ std::optional<Incoming> Channel::receive(std::chrono::milliseconds timeout) {
     in.error = "expected " + std::to_string(want) + " frame(s), got " + std::to_string(parts.size());
     return in;
   }
+  // CURVE: the authenticator names the issued key's owner (User-Id); a peer may only speak as itself.
+  if (role_ == Role::Router)
+    if (const char* uid = zmq_msg_gets(parts.back().handle(), "User-Id"); uid && *uid && in.peer != uid) {
+      in.error = "the CURVE key issued to '" + std::string(uid) + "' was used by '" + in.peer + "'";
+      return in;
+    }
   Decoded d = decode(parts.back().data(), parts.back().size(), max_bytes_);
   in.env = std::move(d.env);
   in.error = std::move(d.error);

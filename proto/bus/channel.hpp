@@ -15,6 +15,7 @@
 
 #include <zmq.hpp>
 
+#include "bus/curve.hpp"
 #include "mlcg/bus.pb.h"
 
 namespace mlcg::bus {
@@ -49,8 +50,10 @@ class Channel {
  public:
   enum class Role { Router, Dealer };
   // Router: binds `endpoint`. Dealer: connects to it with `identity`.
+  // CURVE: `keys`, else the process's (curve::process_keys()); without keys only a loopback or
+  // ipc endpoint is accepted (std::runtime_error otherwise).
   Channel(zmq::context_t& ctx, Role role, const std::string& endpoint, const std::string& identity,
-          size_t max_bytes = kDefaultMaxBytes);
+          size_t max_bytes = kDefaultMaxBytes, const curve::SocketKeys* keys = nullptr);
 
   // Router: `peer` names the destination (throws std::runtime_error if it is not connected).
   void send(const Envelope& env, const std::string& peer = {});

@@ -1,0 +1,180 @@
+// `mlcg run --hosts` across "hosts" that are network namespaces of this machine
+// (setup_hosts.sh): the coupler on mlcg-h1, the coarse level on mlcg-h2, the fine
+// level on mlcg-h3, each started by mpirun through netns_rsh, the bus over tcp
+// with CURVE. The run hands the mass over exactly as a local run does (the very
+// same per-face numbers), and clients without the run's keys, connecting from
+// the launcher's side of the bridge, are refused and logged by the coupler.
+// Skipped unless root with `ip netns`; the namespaces are removed in every case
+// (and a later setup removes what a killed run left).
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <thread>
+
+#include <zmq.hpp>
+
+#include "../run_checks.hpp"
+
+namespace fs = std::filesystem;
+using run_checks::check_region;
+using run_checks::read_csv;
+using run_checks::read_json;
+
+namespace {
+
+const std::string kBin = MLCG_BIN_DIR;
+const std::string kSrc = MLCG_SOURCE_DIR;
+const std::string kNetns = kSrc + "/tests/netns";
+const std::string kTeardown = kNetns + "/teardown_hosts.sh";
+
+int sh(const std::string& cmd) {
+  const int s = std::system(cmd.c_str());
+  return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+std::string skip_reason() {
+  if (geteuid() != 0) return "needs root to create network namespaces (ip netns)";
+  if (sh("ip netns list > /dev/null 2>&1") != 0) return "`ip netns` is unavailable (iproute2 missing or no netns support)";
+  return {};
+}
+
+// Interrupted (Ctrl-C, ctest's timeout): remove the namespaces before dying (fork/exec/wait only).
+extern "C" void teardown_and_exit(int sig) {
+  const pid_t p = fork();
+  if (p == 0) {
+    execl("/bin/sh", "sh", kTeardown.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  if (p > 0) waitpid(p, nullptr, 0);
+  _exit(128 + sig);
+}
+
+class AcrossHosts : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (!skip_reason().empty()) return;
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP}) signal(sig, teardown_and_exit);
+    ready_ = sh(kNetns + "/setup_hosts.sh 3") == 0;
+  }
+  static void TearDownTestSuite() {
+    if (skip_reason().empty()) sh(kTeardown);
+  }
+  void SetUp() override {
+    if (const std::string why = skip_reason(); !why.empty()) GTEST_SKIP() << why;
+    ASSERT_TRUE(ready_) << kNetns << "/setup_hosts.sh failed";
+  }
+  static bool ready_;
+};
+bool AcrossHosts::ready_ = false;
+
+// Starts `cmd` through sh in its own process group; returns the pid.
+pid_t start(const std::string& cmd) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    setpgid(0, 0);
+    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  return pid;
+}
+
+}  // namespace
+
+TEST_F(AcrossHosts, TwoLevelHopperOnThreeHostsWithCurveMatchesTheLocalRun) {
+  const std::string tag = std::to_string(getpid());
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_netns_" + tag), local = dir.string() + "_local";
+  const fs::path hostfile = dir.string() + ".hosts";
+  fs::remove_all(dir);
+  fs::remove_all(local);
+  std::ofstream(hostfile) << "# the hosts made by tests/netns/setup_hosts.sh\n"
+                          << "rsh_agent " << kNetns << "/netns_rsh\n"
+                          << "mca oob_tcp_if_include 10.77.0.0/24\n"
+                          << "mlcg-h1 slots=1 coupler\n"
+                          << "mlcg-h2 slots=1 levels=coarse\n"
+                          << "mlcg-h3 slots=1 levels=fine\n";
+  const std::string kase = kSrc + "/cases/quickstart/mlcg.toml";
+  const pid_t mlcg = start(kBin + "/mlcg run " + kase + " --hosts " + hostfile.string() + " --out " + dir.string() +
+                           " --quiet > " + dir.string() + ".out 2>&1");
+  // While it runs: clients without the run's keys try to register from the launcher's namespace.
+  std::string endpoint;
+  for (int i = 0; i < 600 && endpoint.empty(); ++i) {
+    std::ifstream in(dir / "coupler.endpoint");
+    in >> endpoint;
+    if (endpoint.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_EQ(endpoint.rfind("tcp://10.77.0.1:", 0), 0u) << "the coupler did not bind on mlcg-h1: '" << endpoint << "'";
+  {
+    zmq::context_t ctx;
+    const std::string server_public = read_text(dir / "keys" / "server.pub");
+    const size_t at = server_public.find("public = ");
+    ASSERT_NE(at, std::string::npos);
+    std::vector<zmq::socket_t> rogues;
+    for (int k = 0; k < 2; ++k) {
+      rogues.emplace_back(ctx, zmq::socket_type::dealer);
+      zmq::socket_t& s = rogues.back();
+      s.set(zmq::sockopt::linger, 0);
+      s.set(zmq::sockopt::routing_id, "fine");
+      if (k == 1) {  // its own keypair and even the real server key: only issued keys get in
+        char pub[41], sec[41];
+        zmq_curve_keypair(pub, sec);
+        s.set(zmq::sockopt::curve_serverkey, server_public.substr(at + 9, 40));
+        s.set(zmq::sockopt::curve_publickey, std::string(pub));
+        s.set(zmq::sockopt::curve_secretkey, std::string(sec));
+      }
+      s.connect(endpoint);
+      s.send(zmq::str_buffer("register me"), zmq::send_flags::dontwait);
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+    for (auto& s : rogues) {
+      zmq::message_t m;
+      EXPECT_FALSE(s.recv(m, zmq::recv_flags::dontwait)) << "a client without the run's keys got an answer";
+    }
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(mlcg, &status, 0), mlcg);
+  const std::string out = read_text(dir.string() + ".out");
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << out;
+  EXPECT_NE(out.find("coupler on host mlcg-h1"), std::string::npos) << out;
+  EXPECT_NE(out.find("level 'coarse' on host mlcg-h2"), std::string::npos) << out;
+
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  check_region(dir, s, 0, "fine");
+  // Each level really ran on its host: the coupler saw its issued key arrive from that address.
+  const std::string log = read_text(dir / "coupler.log");
+  EXPECT_NE(log.find("accepted the CURVE key of 'coarse' from 10.77.0.2"), std::string::npos) << log;
+  EXPECT_NE(log.find("accepted the CURVE key of 'fine' from 10.77.0.3"), std::string::npos) << log;
+  // The foreign clients were refused and logged with their address (the launcher's side, 10.77.0.254).
+  // (Over the bridge libzmq reports the keyless one either as a mechanism mismatch or as a handshake broken off.)
+  EXPECT_NE(log.find("refused a connection on " + endpoint + " from 10.77.0.254:"), std::string::npos) << log;
+  EXPECT_NE(log.find("refused a connection from 10.77.0.254: client public key"), std::string::npos) << log;
+  EXPECT_NE(log.find("was not issued for this run"), std::string::npos) << log;
+  for (const auto& e : fs::directory_iterator(dir / "keys")) {
+    struct stat st {};
+    ASSERT_EQ(::stat(e.path().c_str(), &st), 0);
+    EXPECT_EQ(st.st_mode & 0777, 0600u) << e.path();
+  }
+
+  // The same case on this machine over ipc: the same numbers, face by face (a run depends on the seed only).
+  ASSERT_EQ(sh(kBin + "/mlcg run " + kase + " --out " + local.string() + " --quiet > " + local.string() +
+               ".out 2>&1"),
+            0);
+  const auto a = read_csv(dir / "coupling" / "faces_region0.csv"), b = read_csv(local / "coupling" / "faces_region0.csv");
+  EXPECT_EQ(a, b) << "the run across hosts differs from the local run";
+  for (const auto& p : {dir, local}) {
+    fs::remove_all(p);
+    fs::remove(p.string() + ".out");
+  }
+  fs::remove(hostfile);
+}
