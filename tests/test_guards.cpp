@@ -90,13 +90,14 @@ TEST(RunGuard, NonFiniteVelocityStopsWithinOneStepNamingTheParticle) {
 
 TEST(RunGuard, ExcessiveOverlapStopsTheRunWithACheckpointAndAFailedSummary) {
   auto cs = load("collision/head_on.toml");
-  cs.particles[0].position = {-0.0007, 0.0, 0.0};  // 50 % overlap of 1.4 mm radii
-  cs.particles[1].position = {0.0007, 0.0, 0.0};
   const fs::path dir = fs::temp_directory_path() / ("mlcg_guard_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   LevelOptions o = quiet();
   o.out_dir = dir;
   Level level(cs, o);
+  // Pushed together after the start (placed like this, the level refuses them before step 1).
+  level.particles_mut().x[0] = {-0.0007, 0.0, 0.0};  // 100 % overlap of 1.4 mm radii
+  level.particles_mut().x[1] = {0.0007, 0.0, 0.0};
   EXPECT_EQ(level.run(), RunStatus::Failed);
   EXPECT_EQ(level.step(), 0u);  // stopped inside the first step
   EXPECT_TRUE(fs::exists(dir / "checkpoint_failed.h5"));

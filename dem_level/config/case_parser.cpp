@@ -13,10 +13,12 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 
 #include "config/case_parser_detail.hpp"
+#include "core/material.hpp"
 
 namespace mlcg::config {
 
@@ -96,7 +98,7 @@ void read_levels(const Table& root, CaseSpec& spec, Names& names) {
   const auto tables = array_of_tables(root, "levels");
   for (size_t i = 0; i < tables.size(); ++i) {
     const Table& t = tables[i];
-    t.allow({"name", "alpha", "dt", "dt_alpha1", "ranks", "skin", "processors", "balance"});
+    t.allow({"name", "alpha", "dt", "dt_alpha1", "dt_rayleigh", "ranks", "skin", "processors", "balance"});
     LevelSpec l;
     l.name = t.has("name") ? t.required_string("name", "the level's name") : "level" + std::to_string(i);
     names.levels.add(t, l.name);
@@ -105,12 +107,17 @@ void read_levels(const Table& root, CaseSpec& spec, Names& names) {
     if (t.has("dt") && t.has("dt_alpha1"))
       t.fail("dt_alpha1", "both dt and dt_alpha1 given; give dt (this level's step) or dt_alpha1 (the step at "
                           "alpha = 1, scaled by alpha)");
+    if (t.has("dt_rayleigh") && (t.has("dt") || t.has("dt_alpha1")))
+      t.fail("dt_rayleigh", "given together with dt or dt_alpha1; give exactly one way to set the time step");
     if (t.has("dt_alpha1")) {
       l.dt_alpha1 = t.required_number("dt_alpha1", "the time step at alpha = 1 in s (> 0)");
       t.positive("dt_alpha1", l.dt_alpha1, "s");
       l.dt = l.dt_alpha1 * l.alpha;
+    } else if (t.has("dt_rayleigh")) {  // resolved once the particles are known (resolve_rayleigh_dt)
+      l.dt_rayleigh = t.required_number("dt_rayleigh", "a share of the Rayleigh time in (0, 1]");
+      t.check("dt_rayleigh", l.dt_rayleigh > 0.0 && l.dt_rayleigh <= 1.0, num(l.dt_rayleigh) + " is outside (0, 1]");
     } else {
-      l.dt = t.required_number("dt", "the time step in s (> 0), or dt_alpha1");
+      l.dt = t.required_number("dt", "the time step in s (> 0), or dt_alpha1, or dt_rayleigh");
       t.positive("dt", l.dt, "s");
     }
     const int64_t ranks = t.integer("ranks").value_or(l.ranks);
@@ -266,6 +273,36 @@ void check_pairs(const Table& root, const CaseSpec& spec) {
                       missing(spec.walls[w].material, p, "wall '" + spec.walls[w].name + "' meets '" + p + "' particles"));
 }
 
+// dt_rayleigh: dt = that share of the shortest Rayleigh time among the level's
+// particles (every insertion's and [[particles]] radius times alpha), rounded
+// down to 2 significant digits so that levels' steps stay commensurate.
+void resolve_rayleigh_dt(const Table& root, CaseSpec& spec) {
+  const auto levels = array_of_tables(root, "levels");
+  for (size_t i = 0; i < spec.levels.size(); ++i) {
+    LevelSpec& l = spec.levels[i];
+    if (l.dt_rayleigh <= 0.0) continue;
+    if (spec.initial)
+      levels[i].fail("dt_rayleigh", "cannot be used with [initial] (its radii are only known when the snapshot is "
+                                    "read); give dt or dt_alpha1");
+    double tr = std::numeric_limits<double>::infinity();
+    auto consider = [&](const std::string& material, double radius) {
+      for (const MaterialSpec& m : spec.materials)
+        if (m.name == material)
+          tr = std::min(tr, rayleigh_time(radius * l.alpha, {m.name, m.youngs_modulus, m.poisson_ratio, m.density}));
+    };
+    for (const InsertionSpec& in : spec.insertions) consider(in.material, in.radius.smallest());
+    for (const ParticleSpec& p : spec.particles) consider(p.material, p.radius);
+    if (!std::isfinite(tr))
+      levels[i].fail("dt_rayleigh", "the case has no [[insertion]] or [[particles]] whose Rayleigh time could set "
+                                    "dt; give dt or dt_alpha1");
+    const double x = l.dt_rayleigh * tr;
+    const double unit = std::pow(10.0, std::floor(std::log10(x)) - 1.0);
+    double k = std::floor(x / unit);
+    if ((k + 1.0) * unit <= x) k += 1.0;  // floor of a quotient that rounded down
+    l.dt = k * unit;
+  }
+}
+
 std::string folder_of(const std::string& path) {
   namespace fs = std::filesystem;
   fs::path parent = fs::path(path).parent_path();
@@ -312,11 +349,12 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   read_interactions(root, spec, names);
   read_levels(root, spec, names);
   read_domain(root, spec);
-  read_coupling(root, spec, names);
   read_walls(root, spec, names);
   read_insertions(root, spec, names);
   read_particles(root, spec, names);
   read_initial(root, spec, names);
+  resolve_rayleigh_dt(root, spec);  // needs the particles; [coupling] needs every level's dt
+  read_coupling(root, spec, names);
   read_events(root, spec, names);
   read_probes(root, spec, names);
   read_grids(root, spec, names);

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <numeric>
 
+#include <fmt/format.h>
+
 #include "config/case_parser_detail.hpp"
 
 namespace mlcg::config::detail {
@@ -226,6 +228,18 @@ void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
     check_reference(t, "material", s.material, names.materials, "material");
     s.region = read_region(t, spec.domain);
     s.radius = read_radius(t);
+    // Centres are drawn at least a radius inside the region, so it must hold the largest
+    // particle at the coarsest level (the one an insertion fills); else they land outside it.
+    double alpha = 1.0;
+    for (const LevelSpec& l : spec.levels) alpha = std::max(alpha, l.alpha);
+    const double diameter = 2.0 * s.radius.largest() * alpha;
+    for (int a = 0; a < 3; ++a) {
+      const double width = s.region.max[a] - s.region.min[a];
+      t.check("region", width >= diameter,
+              fmt::format("is {} m wide along {}, less than the diameter {} m of its largest particle (radius {} x "
+                          "alpha {}); make the region at least {} m wide in every axis",
+                          num(width), "xyz"[a], num(diameter), num(s.radius.largest()), num(alpha), num(diameter)));
+    }
 
     const auto count = t.integer("count");
     const auto mass = t.number("mass");

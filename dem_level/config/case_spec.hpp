@@ -49,6 +49,8 @@ struct LevelSpec {                 // [[levels]]
   int ranks = 1;                   // ranks >= 1 (MPI processes of this level)
   double skin = 0.0;               // skin >= 0 [m]; 0 = automatic (0.5 x largest level radius)
   double dt_alpha1 = 0.0;          // dt_alpha1 > 0: instead of dt, dt = dt_alpha1 x alpha (dt scales with alpha)
+  double dt_rayleigh = 0.0;        // dt_rayleigh in (0, 1]: instead of dt, this share of the Rayleigh time of the level's
+                                   // smallest particle, rounded down to 2 significant digits (resolved by the parser)
   std::vector<int> processors;     // processors = [px, py, pz]: MPI process grid (product = ranks); empty = automatic
   bool balance = true;             // balance: shift the rank boundaries to even out particle counts
   SourceLoc loc;

@@ -100,6 +100,14 @@ class Level {
   const std::vector<MassFlowProbe>& probes() const { return probes_; }
   MassBalance mass_balance() const;
   double kinetic_energy() const;
+  // Mechanical energy [J] (collective; level/energy.cpp): kinetic with rotation, gravitational
+  // potential -m g.x, and the elastic energy stored in the contacts (Hertz and tangential springs).
+  // Builds the neighbour lists first when they are stale (e.g. before step 1).
+  struct Energy {
+    double kinetic = 0.0, potential = 0.0, elastic = 0.0;
+    double total() const { return kinetic + potential + elastic; }
+  };
+  Energy energy();
   const StabilityReport& stability() const { return stab_; }
   const PhaseTimes& phase_times() const { return times_; }
   void reset_phase_times() { times_ = PhaseTimes{}; }
@@ -144,7 +152,8 @@ class Level {
   void setup_insertions();
   void setup_measurements();
   void load_checkpoint(const std::filesystem::path& path);
-  void load_initial_state(std::vector<ParticleKind>& kinds, bool add);
+  void refuse_placed_overlap();   // collective; after the forces at t = 0
+  void load_initial_state(std::vector<ParticleKind>& kinds, std::vector<PlacedParticle>& placed, bool add);
 
   void pre_step();                // events and insertion at the current time
   void check_events(double t);

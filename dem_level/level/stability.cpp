@@ -9,9 +9,37 @@
 
 namespace mlcg {
 
+InitialOverlap initial_overlaps(const std::vector<PlacedParticle>& placed, const MaterialTable& mt) {
+  InitialOverlap ov;
+  if (placed.empty()) return ov;
+  double r_max = 0.0;
+  for (const auto& q : placed) r_max = std::max(r_max, q.s.r);
+  SphereHash hash(2.0 * r_max);
+  for (const auto& q : placed) hash.add(q.s);
+  for (size_t i = 0; i < placed.size(); ++i) {
+    const PlacedParticle& a = placed[i];
+    double stored = 0.0;  // Hertz energy of a's overlaps, 8/15 E* sqrt(R*) d^(5/2) each
+    hash.find_near(a.s.x, a.s.r, [&](size_t j, const Vec3& x, double r) {
+      const double d = a.s.r + r - norm(a.s.x - x);
+      if (j == i || d <= 0.0) return false;
+      const PairCoeffs& c = mt.pair(a.material, placed[j].material);
+      stored += (8.0 / 15.0) * c.e_star * std::sqrt(a.s.r * r / (a.s.r + r) * d) * d * d;
+      if (d > ov.ratio * std::min(a.s.r, r)) {
+        ov.ratio = d / std::min(a.s.r, r);
+        ov.a = std::min(a.id, placed[j].id);
+        ov.b = std::max(a.id, placed[j].id);
+      }
+      return false;
+    });
+    const double m = sphere_mass(mt.material(a.material).density, a.s.r);
+    ov.speed = std::max(ov.speed, std::sqrt(2.0 * stored / m));
+  }
+  return ov;
+}
+
 StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelSpec& lvl, const MaterialTable& mt,
                                 const std::vector<ParticleKind>& kinds, const std::vector<int>& wall_materials,
-                                double gravity_height) {
+                                double gravity_height, const InitialOverlap& overlaps) {
   StabilityReport r;
   const auto& st = cs.stability;
   const double dt = lvl.dt;
@@ -37,6 +65,16 @@ StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelS
       r.impact_speed = std::max(r.impact_speed, std::sqrt(k.speed * k.speed + 2.0 * g * gravity_height));
     r.impact_speed_estimated = true;
   }
+  if (overlaps.speed > r.impact_speed) {
+    r.impact_speed = overlaps.speed;
+    r.impact_speed_estimated = true;
+    r.impact_speed_from_overlaps = true;
+  }
+  if (overlaps.ratio > 0.0)
+    r.lines.push_back(fmt::format("stability: particles placed overlapping, up to {:.1f} % of the radius (ids {} and "
+                                  "{}); the stored energy can throw a particle at {:.3g} m/s{}",
+                                  100.0 * overlaps.ratio, overlaps.a, overlaps.b, overlaps.speed,
+                                  r.impact_speed_from_overlaps ? " (used as the impact speed)" : ""));
   const double v = std::max(r.impact_speed, 1e-6);
 
   // Hertz contact time and overlap of the smallest partners: particle pairs and particle-wall.
@@ -50,8 +88,12 @@ StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelS
     for (const auto& b : kinds) {
       const auto& c = mt.pair(a.material, b.material);
       if (!c.defined) continue;
-      const double mb = sphere_mass(mt.material(b.material).density, b.r_min);
-      consider(ma * mb / (ma + mb), a.r_min * b.r_min / (a.r_min + b.r_min), c.e_star, std::min(a.r_min, b.r_min));
+      // The smallest partners give the shortest contact; the smallest against the
+      // largest the deepest overlap relative to the smaller radius (polydisperse beds).
+      for (const double rb : {b.r_min, b.r_max}) {
+        const double mb = sphere_mass(mt.material(b.material).density, rb);
+        consider(ma * mb / (ma + mb), a.r_min * rb / (a.r_min + rb), c.e_star, std::min(a.r_min, rb));
+      }
     }
     for (int wm : wall_materials) {
       const auto& c = mt.pair(a.material, wm);
@@ -96,7 +138,11 @@ StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelS
         "{}: impacts at {:.3g} m/s{} would overlap {:.1f} % of the radius, above [stability] max_overlap_fraction = "
         "{:.0f} %; the run would stop at the first such impact. Use a stiffer material, a lower speed, set "
         "[stability] max_impact_speed if the estimate is too pessimistic, or raise max_overlap_fraction",
-        where, r.impact_speed, r.impact_speed_estimated ? " (estimated from insertion speed and free fall)" : "",
+        where, r.impact_speed,
+        r.impact_speed_from_overlaps  ? " (the speed the initial overlaps can give a particle; separate the placed "
+                                        "particles)"
+        : r.impact_speed_estimated ? " (estimated from insertion speed and free fall)"
+                                   : "",
         100.0 * r.overlap_ratio, 100.0 * st.max_overlap_fraction));
   return r;
 }
