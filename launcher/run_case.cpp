@@ -8,12 +8,15 @@
 #include <fstream>
 #include <stdexcept>
 
+#include <sys/resource.h>
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "config/case_parser.hpp"
 #include "hierarchy.hpp"
 #include "hosts.hpp"
+#include "io/atomic_file.hpp"
 #include "process.hpp"
 
 namespace fs = std::filesystem;
@@ -55,6 +58,29 @@ void print_summary(const fs::path& run_dir) {
               run_dir.c_str());
 }
 
+// User + system CPU seconds of every descendant this process has waited for (mpirun waits
+// for its ranks, so they count too).
+double children_cpu_seconds() {
+  rusage ru{};
+  getrusage(RUSAGE_CHILDREN, &ru);
+  auto sec = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  return sec(ru.ru_utime) + sec(ru.ru_stime);
+}
+
+// Adds the measured CPU time of the run's processes to its summary.json: the cost of a run
+// whose levels wait for each other is the CPU they used, not wall time x cores.
+void record_cpu_seconds(const fs::path& run_dir, double cpu) {
+  std::ifstream in(run_dir / "summary.json");
+  if (!in) return;
+  auto j = nlohmann::json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return;
+  j["cpu_seconds"] = cpu;
+  io::write_file_atomic(run_dir / "summary.json", j.dump(2) + "\n");
+}
+
+int run_launched(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet,
+                 const launcher::Placement& placement);
+
 }  // namespace
 
 int run_case(const std::string& case_file, std::string out_dir, bool quiet, const std::string& hosts, bool curve) {
@@ -74,6 +100,18 @@ int run_case(const std::string& case_file, std::string out_dir, bool quiet, cons
   }
   if (out_dir.empty()) out_dir = default_run_dir(case_file);
   fs::create_directories(out_dir);
+  const double cpu0 = children_cpu_seconds();
+  const int rc = run_launched(cs, case_file, out_dir, quiet, placement);
+  const double cpu = children_cpu_seconds() - cpu0;
+  record_cpu_seconds(out_dir, cpu);
+  std::printf("CPU time of all processes: %.1f s\n", cpu);
+  return rc;
+}
+
+namespace {
+
+int run_launched(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet,
+                 const launcher::Placement& placement) {
   if (cs.levels.size() > 1) {
     try {
       return launcher::run_hierarchy(cs, case_file, out_dir, quiet, placement);
@@ -97,6 +135,8 @@ int run_case(const std::string& case_file, std::string out_dir, bool quiet, cons
   if (r.exit_code != 0) std::fprintf(stderr, "mlcg: dem_level exited with code %d\n", r.exit_code);
   return r.exit_code;
 }
+
+}  // namespace
 
 
 }  // namespace mlcg::launcher

@@ -34,6 +34,9 @@ StudyRow measure_run(const Variant& v, const std::string& probe) {
                             l.value("alpha", 0.0), n);
   }
   if (s.contains("coupling")) r.cpu += s["coupling"].value("coupler_busy_seconds", 0.0);
+  // Measured by the launcher (user + system of every process); the sum above for older runs.
+  r.cpu_measured = s.contains("cpu_seconds");
+  if (r.cpu_measured) r.cpu = s["cpu_seconds"].get<double>();
   r.wall = s.value("wall_seconds", 0.0);
   r.data_dir = r.hierarchy ? v.run / "levels" / s.value("probes_from_level", "") : v.run;
   const auto& probes = s.value("probes", nlohmann::json::array());
@@ -117,15 +120,16 @@ void write_md(const StudySpec& s, const std::vector<StudyRow>& rows) {
   out += fmt::format("| --- |{} --- | --- | --- | --- | --- | --- | --- | --- | --- |\n", swept ? " --- |" : "");
   for (const auto& r : rows) {
     const std::string value = r.v->sweep.empty() ? "—" : fmt::format("{} = {}", r.v->sweep_key, r.v->sweep_value);
-    out += fmt::format("| {}{} |{} {} | {:.4f} ± {:.4f} | {:+.1f} % | {:.1f} | {:.1f} | {:.3g} | {:.3g} | {:.2f} / "
+    out += fmt::format("| {}{} |{} {} | {:.4f} ± {:.4f} | {:+.1f} % | {:.1f} | {:.1f}{} | {:.3g} | {:.3g} | {:.2f} / "
                        "{:.2f} | {:.2f} |\n",
                        r.v->label, r.reused ? " (reused)" : "",
                        swept ? fmt::format(" {} |", value) : std::string(), r.levels, r.mdot, r.sigma, r.error_pct,
-                       r.wall, r.cpu, r.particle_steps, r.wall > 0.0 ? r.particle_steps / r.wall : 0.0, r.speedup_wall,
+                       r.wall, r.cpu, r.cpu_measured ? "" : " *", r.particle_steps, r.wall > 0.0 ? r.particle_steps / r.wall : 0.0, r.speedup_wall,
                        r.speedup_cpu, r.step_ratio);
   }
-  out += "\nerror = (⟨ṁ⟩ − ⟨ṁ⟩_ref) / ⟨ṁ⟩_ref. CPU seconds = Σ over levels of wall seconds × ranks, plus the "
-         "coupler's busy seconds: the cores a run occupies, not measured CPU time. Speedup = reference / variant "
+  out += "\nerror = (⟨ṁ⟩ − ⟨ṁ⟩_ref) / ⟨ṁ⟩_ref. CPU seconds = user + system time of every process of the run, "
+         "measured by the launcher (a level waiting for the coupler uses none); * = a run without that measurement: "
+         "Σ over levels of wall seconds × ranks plus the coupler's busy seconds. Speedup = reference / variant "
          "(wall and CPU seconds); particle-step ratio = reference's particle-steps / the variant's.\n\n";
   for (const auto& r : rows) out += fmt::format("- `{}`: `{}`\n", r.v->name, r.v->run.string());
   io::write_file_atomic(s.folder / "study.md", out);

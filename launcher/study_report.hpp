@@ -23,7 +23,8 @@ struct StudyRow {
   std::string probe;            // the probe's name
   double error_pct = 0.0;       // 100 (⟨ṁ⟩ - ⟨ṁ⟩_ref) / ⟨ṁ⟩_ref
   double wall = 0.0;            // run's wall seconds
-  double cpu = 0.0;             // Σ levels wall × ranks + coupler busy seconds
+  double cpu = 0.0;             // measured CPU seconds of the run's processes (else Σ levels wall × ranks + coupler busy)
+  bool cpu_measured = false;
   double particle_steps = 0.0;  // Σ levels
   double speedup_wall = 0.0, speedup_cpu = 0.0, step_ratio = 0.0;  // reference / this
   std::filesystem::path data_dir;  // the finest level's run folder (probes/, grids/)
