@@ -217,6 +217,16 @@ TEST(CaseParser, ReadmeExampleParses) {  // the user documentation's complete ex
   EXPECT_EQ(c.time.end_event, "open");
 }
 
+TEST(CaseParser, EveryShippedCaseParses) {  // the cases users start from, long runs included
+  int n = 0;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(std::string(MLCG_SOURCE_DIR) + "/cases")) {
+    if (e.path().extension() != ".toml" || e.path().filename() == "study.toml") continue;  // study files: mlcg study
+    EXPECT_NO_THROW(load_case(e.path().string())) << e.path();
+    ++n;
+  }
+  EXPECT_GE(n, 20);
+}
+
 // ---- syntax, unknown keys, types --------------------------------------------------
 
 TEST(CaseParserErrors, TomlSyntaxError) {
