@@ -177,6 +177,7 @@ class Level {
   bool coupling_removes(size_t i);      // rebuild: particle i left a fine region (counted)
   void coupling_refresh();              // rebuild: crossing candidates
   bool coupling_finished() const;       // the coupler said stop and the last interval is done
+  const std::string& coupling_stop_reason() const;  // non-empty: the coupler cut the run short
   void coupling_bye(RunStatus status, const std::string& reason);
 
   config::CaseSpec cs_;
