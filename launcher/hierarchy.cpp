@@ -10,7 +10,12 @@
 #include <nlohmann/json.hpp>
 
 #include "io/atomic_file.hpp"
+#include "bus/case_hash.hpp"
+#include "config/case_parser.hpp"
+#include "checkpoints.hpp"
 #include "process.hpp"
+#include "status.hpp"
+#include "supervise.hpp"
 
 namespace fs = std::filesystem;
 
@@ -44,12 +49,16 @@ nlohmann::json read_json(const fs::path& p) {
 
 // One summary over the hierarchy: every level's entry, the finest level's
 // probes (data at the highest resolution available), overall status.
-void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const GroupResult& r) {
+void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Outcome& r, int attempts) {
   nlohmann::json s;
   s["case"] = cs.path;
   s["title"] = cs.title;
   s["status"] = r.exit_code == 0 ? "completed" : (r.interrupted ? "interrupted" : "failed");
-  s["reason"] = r.failed.empty() ? "" : r.failed + " exited with code " + std::to_string(r.exit_code);
+  s["reason"] = r.failed;
+  s["attempts"] = attempts;
+  if (const auto m = read_manifest(run_dir))
+    s["checkpoint"] = {{"interval", m->interval}, {"sim_time", m->sim_time},
+                       {"manifest", (run_dir / "checkpoints" / "manifest.json").string()}};
   s["levels"] = nlohmann::json::array();
   double wall = 0.0;
   const size_t finest = finest_level(cs);
@@ -85,54 +94,129 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Gr
   io::write_file_atomic(run_dir / "summary.json", s.dump(2) + "\n");
 }
 
-}  // namespace
-
-int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet) {
-  const fs::path run_dir(out_dir);
-  const std::string ep = !cs.coupling->endpoint.empty() ? cs.coupling->endpoint : bus_endpoint(run_dir);
+// The coupler's and every level's command line; from a consistent checkpoint when `from` is set.
+std::vector<Member> members_of(const config::CaseSpec& cs, const std::string& case_file, const fs::path& run_dir,
+                               const std::string& ep, const std::optional<ResumePoint>& from) {
   const fs::path bin(own_directory());
-  std::printf("mlcg: case %s, %zu levels coupled over %s; run folder %s\n", case_file.c_str(), cs.levels.size(),
-              ep.c_str(), out_dir.c_str());
-  std::vector<NamedChild> children;
-  std::vector<std::string> coupler{(bin / "coupler_service").string(), case_file, "--out", out_dir, "--endpoint", ep};
-  if (quiet) coupler.push_back("--quiet");
-  children.push_back({"coupler", spawn(coupler)});
-  // Progress lines come from the finest level; the others write their logs only.
-  const size_t finest = finest_level(cs);
-  for (size_t l = 0; l < cs.levels.size(); ++l) {
-    const auto& lvl = cs.levels[l];
+  std::vector<Member> m;
+  std::vector<std::string> coupler{(bin / "coupler_service").string(), case_file, "--out", run_dir.string(),
+                                   "--endpoint", ep, "--quiet"};
+  if (from) coupler.insert(coupler.end(), {"--resume", from->coupler.string()});
+  m.push_back({"coupler", coupler});
+  for (const auto& lvl : cs.levels) {
     std::vector<std::string> argv;
     if (lvl.ranks > 1) argv = mpirun_prefix(lvl.ranks);
     argv.push_back((bin / "dem_level").string());
     argv.insert(argv.end(), {case_file, "--out", (run_dir / "levels" / lvl.name).string(), "--level", lvl.name,
-                             "--coupler", ep});
-    if (quiet || l != finest) argv.push_back("--quiet");
-    std::printf("mlcg: level '%s' (alpha %g, dt %g s, %d rank(s))\n", lvl.name.c_str(), lvl.alpha,
-                lvl.dt, lvl.ranks);
-    children.push_back({"level '" + lvl.name + "'", spawn(argv)});
+                             "--coupler", ep, "--quiet"});
+    if (from) {
+      const auto it = from->levels.find(lvl.name);
+      if (it == from->levels.end())
+        throw std::runtime_error("the consistent checkpoint has no file for level '" + lvl.name + "'");
+      argv.insert(argv.end(), {"--restart", it->second.string()});
+    }
+    m.push_back({"level '" + lvl.name + "'", argv});
   }
-  std::fflush(stdout);
-  const GroupResult r = wait_group(children);
-  write_summary(cs, run_dir, r);
+  return m;
+}
+
+void print_end(const fs::path& run_dir, const Outcome& r) {
   const auto s = read_json(run_dir / "summary.json");
-  std::printf("\n== %s: %s ==\n", out_dir.c_str(), s.value("status", "?").c_str());
+  std::printf("\n== %s: %s ==\n", run_dir.c_str(), s.value("status", "?").c_str());
   for (const auto& l : s["levels"])
     std::printf("level %s: alpha %g, up to %d particles, %.1f s wall, %.3g particle-steps/s\n",
                 l.value("name", "?").c_str(), l.value("alpha", 0.0), l.value("particles_max", 0),
                 l.value("wall_seconds", 0.0), l.value("particle_steps_per_second", 0.0));
   if (s.contains("coupling") && s["coupling"].contains("regions"))
-    for (const auto& r : s["coupling"]["regions"])
+    for (const auto& g : s["coupling"]["regions"])
       std::printf("coupling: %llu fine particles inserted (%.6g kg of %.6g kg crossed, %.3g kg carried); overhead "
                   "%.1f %% of wall time\n",
-                  r.value("inserted_particles", 0ULL), r.value("inserted_kg", 0.0), r.value("crossed_kg", 0.0),
-                  r.value("remainder_kg", 0.0), 100.0 * s["coupling"].value("overhead_share", 0.0));
+                  g.value("inserted_particles", 0ULL), g.value("inserted_kg", 0.0), g.value("crossed_kg", 0.0),
+                  g.value("remainder_kg", 0.0), 100.0 * s["coupling"].value("overhead_share", 0.0));
   for (const auto& p : s["probes"])
     std::printf("probe %s (level %s): mass flow %.4f +- %.4f kg/s\n", p.value("name", "?").c_str(),
                 s.value("probes_from_level", "?").c_str(), p.value("mean_kg_per_s", 0.0), p.value("std_kg_per_s", 0.0));
-  if (r.exit_code != 0)
-    std::fprintf(stderr, "mlcg: %s exited with code %d; every other process was stopped\n", r.failed.c_str(),
-                 r.exit_code);
+  if (r.exit_code == 0) return;
+  if (!r.failed.empty()) std::fprintf(stderr, "mlcg: %s; every other process was stopped\n", r.failed.c_str());
+  if (s.contains("checkpoint"))
+    std::fprintf(stderr, "mlcg: last consistent checkpoint: interval %llu (t = %.6g s), %s; continue with `mlcg "
+                         "resume %s`\n", s["checkpoint"].value("interval", 0ULL), s["checkpoint"].value("sim_time", 0.0),
+                 s["checkpoint"].value("manifest", "").c_str(), run_dir.c_str());
+  else
+    std::fprintf(stderr, "mlcg: no consistent checkpoint was written yet\n");
+}
+
+// Runs the hierarchy (restarting it per [launcher] restart_on_failure) until it completes, is
+// interrupted or fails for good.
+int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const fs::path& run_dir, bool quiet,
+                        std::optional<ResumePoint> from) {
+  const std::string ep = !cs.coupling->endpoint.empty() ? cs.coupling->endpoint : bus_endpoint(run_dir);
+  std::printf("mlcg: case %s, %zu levels coupled over %s; run folder %s\n", case_file.c_str(), cs.levels.size(),
+              ep.c_str(), run_dir.c_str());
+  for (const auto& lvl : cs.levels)
+    std::printf("mlcg: level '%s' (alpha %g, dt %g s, %d rank(s))\n", lvl.name.c_str(), lvl.alpha, lvl.dt, lvl.ranks);
+  StatusBoard board(run_dir, case_file, !quiet && isatty(STDOUT_FILENO));
+  Outcome r;
+  int attempt = 0;
+  for (;; ++attempt) {
+    if (from)
+      std::printf("mlcg: continuing from the consistent checkpoint at interval %llu (t = %.6g s)\n",
+                  static_cast<unsigned long long>(from->interval), from->sim_time);
+    std::fflush(stdout);
+    auto members = members_of(cs, case_file, run_dir, ep, from);
+    SuperviseOptions so;
+    so.interrupt_grace = cs.coupling->timeout + 30.0;
+    so.tick = [&](const std::vector<Member>& m, const char* phase) { board.update(m, phase, attempt); };
+    r = supervise(members, so);
+    board.end_line();
+    const bool retry = r.exit_code != 0 && !r.interrupted && attempt < cs.launcher.restart_on_failure;
+    board.update(members, r.exit_code == 0 ? "completed" : r.interrupted ? "interrupted" : retry ? "restarting" : "failed",
+                 attempt, true);
+    if (!retry) break;
+    try {
+      from = read_manifest(run_dir);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "mlcg: cannot restart: %s\n", e.what());
+      break;
+    }
+    std::fprintf(stderr, "mlcg: restarting the hierarchy (%d of %d restarts) from %s\n", attempt + 1,
+                 cs.launcher.restart_on_failure,
+                 from ? fmt::format("the consistent checkpoint at interval {}", from->interval).c_str()
+                      : "the beginning (no consistent checkpoint yet)");
+  }
+  write_summary(cs, run_dir, r, attempt + 1);
+  print_end(run_dir, r);
   return r.exit_code;
+}
+
+}  // namespace
+
+int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet) {
+  const fs::path run_dir(out_dir);
+  write_run_info(run_dir, {fs::absolute(case_file).string()});
+  return supervise_hierarchy(cs, case_file, run_dir, quiet, std::nullopt);
+}
+
+int resume_hierarchy(const std::string& run_folder, bool quiet) {
+  const fs::path run_dir(run_folder);
+  try {
+    const RunInfo info = read_run_info(run_dir);
+    const auto from = read_manifest(run_dir);
+    if (!from)
+      throw std::runtime_error(run_dir.string() + " has no consistent checkpoint (checkpoints/manifest.json); start "
+                               "it again with `mlcg run`");
+    const config::CaseSpec cs = config::load_case(info.case_file);
+    if (bus::case_hash(info.case_file) != from->case_hash)
+      throw std::runtime_error(info.case_file + " changed since the checkpoint (hash " + bus::case_hash(info.case_file) +
+                               ", the checkpoint's " + from->case_hash + "); a run resumes with the case it started with");
+    return supervise_hierarchy(cs, info.case_file, run_dir, quiet, from);
+  } catch (const config::CaseError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: mlcg resume %s: %s\n", run_folder.c_str(), e.what());
+    return 2;
+  }
 }
 
 }  // namespace mlcg::launcher

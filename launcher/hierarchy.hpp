@@ -11,5 +11,7 @@ namespace mlcg::launcher {
 
 // Returns the exit code of the run (0 when every process completed).
 int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet);
+// `mlcg resume RUN_DIR`: the same case, coupler and levels from checkpoints/manifest.json.
+int resume_hierarchy(const std::string& run_dir, bool quiet);
 
 }  // namespace mlcg::launcher

@@ -15,6 +15,7 @@
 #include "config/case_parser.hpp"
 #include "hierarchy.hpp"
 #include "process.hpp"
+#include "status.hpp"
 
 namespace fs = std::filesystem;
 using namespace mlcg;
@@ -93,7 +94,20 @@ int main(int argc, char** argv) {
   run->add_option("case", case_file, "case file (TOML)")->required()->check(CLI::ExistingFile);
   run->add_option("--out", out_dir, "run folder (default runs/<case>-<date>)");
   run->add_flag("--quiet", quiet, "no progress lines");
+  auto* resume = app.add_subcommand("resume", "continue an interrupted or failed multi-level run from its last "
+                                              "consistent checkpoint");
+  std::string run_dir;
+  resume->add_option("run_dir", run_dir, "run folder")->required()->check(CLI::ExistingDirectory);
+  resume->add_flag("--quiet", quiet, "no progress line");
+  auto* ps = app.add_subcommand("ps", "processes and progress of a multi-level run");
+  ps->add_option("run_dir", run_dir, "run folder")->required()->check(CLI::ExistingDirectory);
+  auto* status = app.add_subcommand("status", "the multi-level runs under ./runs and their state");
+  std::string runs_dir = "runs";
+  status->add_option("--runs", runs_dir, "folder holding the run folders (default ./runs)");
   CLI11_PARSE(app, argc, argv);
   if (run->parsed()) return run_case(case_file, out_dir, quiet);
+  if (resume->parsed()) return launcher::resume_hierarchy(run_dir, quiet);
+  if (ps->parsed()) return launcher::print_ps(run_dir);
+  if (status->parsed()) return launcher::print_status_all(runs_dir);
   return 0;
 }

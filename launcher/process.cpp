@@ -36,12 +36,26 @@ pid_t spawn(const std::vector<std::string>& argv) {
   return pid;
 }
 
-GroupResult wait_group(const std::vector<NamedChild>& children, double grace) {
+void catch_signals() {
   struct sigaction sa {};
   sa.sa_handler = remember_signal;
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+}
+
+int take_signal() { return g_signal.exchange(0); }
+
+std::string describe_exit(int status) {
+  if (WIFSIGNALED(status))
+    return "was killed by signal " + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")";
+  return "exited with code " + std::to_string(WEXITSTATUS(status));
+}
+
+int exit_code_of(int status) { return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status); }
+
+GroupResult wait_group(const std::vector<NamedChild>& children, double grace) {
+  catch_signals();
   GroupResult r;
   std::vector<bool> done(children.size(), false);
   bool stopping = false;
@@ -61,7 +75,7 @@ GroupResult wait_group(const std::vector<NamedChild>& children, double grace) {
         continue;
       }
       done[c] = true;
-      const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      const int code = exit_code_of(status);
       if (code != 0 && r.failed.empty() && !stopping) {
         r.failed = children[c].name;
         r.exit_code = code;

@@ -1,0 +1,87 @@
+#include "supervise.hpp"
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <sys/wait.h>
+#include <thread>
+
+#include "process.hpp"
+
+namespace mlcg::launcher {
+
+Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
+  using Clock = std::chrono::steady_clock;
+  const auto after = [](double s) { return Clock::now() + std::chrono::milliseconds(static_cast<int64_t>(s * 1000)); };
+  catch_signals();
+  take_signal();
+  Outcome out;
+  for (auto& m : members) {
+    m.pid = spawn(m.argv);
+    m.done = false;
+    m.state = "running";
+  }
+  bool aborting = false;
+  auto give_up = Clock::time_point::max(), kill_at = Clock::time_point::max();
+  const auto stop_all = [&](int sig) {
+    for (auto& m : members)
+      if (!m.done) {
+        kill(-m.pid, sig);
+        m.state = "stopping";
+      }
+  };
+  const auto abort_all = [&] {
+    aborting = true;
+    stop_all(SIGTERM);
+    kill_at = after(opt.kill_grace);
+  };
+  for (;;) {
+    size_t running = 0;
+    for (auto& m : members) {
+      if (m.done) continue;
+      int status = 0;
+      if (waitpid(m.pid, &status, WNOHANG) != m.pid) {
+        ++running;
+        continue;
+      }
+      m.done = true;
+      m.state = describe_exit(status);
+      const int code = exit_code_of(status);
+      if (code != 0 && !out.interrupted && !aborting) {
+        out.failed = m.name + " (pid " + std::to_string(m.pid) + ") " + m.state;
+        out.exit_code = code;
+        std::fprintf(stderr, "\nmlcg: %s; stopping every other process\n", out.failed.c_str());
+        abort_all();
+      }
+    }
+    if (running == 0) break;
+    if (take_signal() != 0) {
+      if (!out.interrupted && !aborting) {
+        out.interrupted = true;
+        std::fprintf(stderr, "\nmlcg: interrupted: every level writes a consistent checkpoint at the next coupling "
+                             "interval, then stops (interrupt again to stop at once)\n");
+        if (!members[0].done) kill(-members[0].pid, SIGINT);
+        give_up = after(opt.interrupt_grace);
+      } else if (!aborting) {
+        std::fprintf(stderr, "\nmlcg: stopping every process now\n");
+        abort_all();
+      }
+    }
+    // The coupler is gone (it stopped the levels or failed): whoever is left gets a few seconds.
+    if (out.interrupted && !aborting && members[0].done && give_up > after(10.0)) give_up = after(10.0);
+    if (!aborting && Clock::now() > give_up) {
+      std::fprintf(stderr, "\nmlcg: the stop with a consistent checkpoint did not finish; stopping every process\n");
+      abort_all();
+    }
+    if (Clock::now() > kill_at) {
+      stop_all(SIGKILL);
+      kill_at = Clock::time_point::max();
+    }
+    if (opt.tick) opt.tick(members, out.interrupted ? "stopping" : aborting ? "failing" : "running");
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  if (out.interrupted && out.exit_code == 0) out.exit_code = 130;
+  return out;
+}
+
+}  // namespace mlcg::launcher
