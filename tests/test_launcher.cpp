@@ -9,6 +9,9 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <csignal>
+#include <cerrno>
+#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -181,6 +184,175 @@ TEST(MlcgRun, ThreeLevelHopperNestsTwoRegionsThroughTheMiddleLevel) {
   check_region(dir, s, 0, "coarse");  // alpha 4 -> 2
   const double inserted = check_region(dir, s, 1, "fine");  // alpha 2 -> 1, fed by what region 0 inserted
   EXPECT_GT(s["probes"][0]["total_mass_kg"].get<double>(), 0.1 * inserted);
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".out");
+}
+
+// ---- Consistent checkpoints, interrupt and resume, failures (issue 5) ----
+
+namespace {
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  return {(std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()};
+}
+
+// Starts `mlcg ARGS` in the background (output to `log`); returns its pid.
+pid_t start_mlcg(const std::vector<std::string>& args, const fs::path& log) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(fd, 1);
+    dup2(fd, 2);
+    std::vector<std::string> a{kBin + "/mlcg"};
+    a.insert(a.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& s : a) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+int wait_exit(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+// Waits (generously: the machine may be loaded) until the run's manifest names interval >= k.
+bool wait_for_checkpoint(const fs::path& dir, uint64_t k, pid_t launcher) {
+  for (int i = 0; i < 1200; ++i) {
+    try {
+      if (read_json(dir / "checkpoints" / "manifest.json")["interval"].get<uint64_t>() >= k) return true;
+    } catch (const std::exception&) {  // not there yet
+    }
+    if (waitpid(launcher, nullptr, WNOHANG) == launcher) return false;
+    usleep(100000);
+  }
+  return false;
+}
+
+// Every process status.json lists (the last attempt's) is gone.
+void expect_no_process_left(const fs::path& dir) {
+  const auto st = read_json(dir / "status.json");
+  ASSERT_FALSE(st["processes"].empty());
+  for (const auto& p : st["processes"]) {
+    const pid_t pid = p["pid"].get<pid_t>();
+    EXPECT_TRUE(kill(pid, 0) != 0 && errno == ESRCH) << p["name"] << " (pid " << pid << ") is still alive";
+  }
+}
+
+pid_t pid_of(const fs::path& dir, const std::string& name) {
+  for (int i = 0; i < 100; ++i) {
+    try {
+      const auto st = read_json(dir / "status.json");
+      for (const auto& p : st["processes"])
+        if (p["name"] == name && p["state"] == "running") return p["pid"].get<pid_t>();
+    } catch (const std::exception&) {
+    }
+    usleep(100000);
+  }
+  return -1;
+}
+
+fs::path case_with(const std::string& extra, const std::string& tag) {
+  const fs::path c = fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()) + ".toml");
+  std::ofstream(c) << slurp(kSrc + "/cases/quickstart/mlcg.toml") << "\n" << extra << "\n";
+  return c;
+}
+}  // namespace
+
+TEST(MlcgRecovery, InterruptThenResumeGivesTheUninterruptedResult) {
+  const fs::path ref = run_hierarchy_case("mlcg.toml", "ref");
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_int_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 300, pid)) << slurp(dir.string() + ".out");
+  kill(pid, SIGINT);
+  EXPECT_EQ(wait_exit(pid), 130) << slurp(dir.string() + ".out");
+  expect_no_process_left(dir);
+  const auto cut = read_json(dir / "summary.json");
+  EXPECT_EQ(cut["status"], "interrupted");
+  const uint64_t k = read_json(dir / "checkpoints" / "manifest.json")["interval"].get<uint64_t>();
+  EXPECT_GE(k, 300u);
+  EXPECT_LT(cut["simulated_time"].get<double>(), 0.59) << "the run was cut short";
+  // No temporary file of the consistent set is left.
+  for (const auto& e : fs::recursive_directory_iterator(dir / "checkpoints"))
+    EXPECT_EQ(e.path().string().find(".tmp."), std::string::npos) << e.path();
+
+  ASSERT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
+      << slurp(dir.string() + ".out");
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  check_region(dir, s, 0, "fine");
+  // The same run: per-face totals and the per-interval log to the last digit, the same fine balance.
+  EXPECT_EQ(slurp(dir / "coupling" / "faces_region0.csv"), slurp(ref / "coupling" / "faces_region0.csv"));
+  EXPECT_EQ(slurp(dir / "coupling" / "region0.csv"), slurp(ref / "coupling" / "region0.csv"));
+  EXPECT_EQ(read_json(dir / "levels" / "fine" / "summary.json")["mass_balance"],
+            read_json(ref / "levels" / "fine" / "summary.json")["mass_balance"]);
+  EXPECT_EQ(slurp(dir / "levels" / "fine" / "series.csv"), slurp(ref / "levels" / "fine" / "series.csv"));
+  for (const auto& d : {ref, dir}) {
+    fs::remove_all(d);
+    fs::remove(d.string() + ".out");
+  }
+}
+
+TEST(MlcgRecovery, KilledFineLevelIsRestartedFromTheLastCheckpointAndTheRunCompletes) {
+  const fs::path cfile = case_with("[launcher]\nrestart_on_failure = 2", "restart");
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_kill_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 300, pid)) << slurp(dir.string() + ".out");
+  // `mlcg ps` shows the running hierarchy.
+  std::string ps;
+  for (int i = 0; i < 100 && ps.find("p-steps/s") == std::string::npos; ++i) {  // progress comes each wall second
+    ASSERT_EQ(run(kBin + "/mlcg ps " + dir.string() + " > " + dir.string() + ".ps 2>&1"), 0);
+    ps = slurp(dir.string() + ".ps");
+    usleep(100000);
+  }
+  EXPECT_NE(ps.find("level 'fine'"), std::string::npos) << ps;
+  EXPECT_NE(ps.find("coupler"), std::string::npos) << ps;
+  EXPECT_NE(ps.find("p-steps/s"), std::string::npos) << ps;
+  const pid_t fine = pid_of(dir, "level 'fine'");
+  ASSERT_GT(fine, 0);
+  ASSERT_EQ(kill(fine, SIGKILL), 0);
+  EXPECT_EQ(wait_exit(pid), 0) << slurp(dir.string() + ".out");
+  const std::string out = slurp(dir.string() + ".out");
+  EXPECT_NE(out.find("level 'fine' (pid " + std::to_string(fine) + ") was killed by signal 9"), std::string::npos) << out;
+  EXPECT_NE(out.find("restarting the hierarchy"), std::string::npos) << out;
+  expect_no_process_left(dir);
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  EXPECT_EQ(s["attempts"], 2);
+  check_region(dir, s, 0, "fine");
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", dir.string() + ".ps", cfile.string()}) fs::remove(f);
+}
+
+TEST(MlcgRecovery, KilledFineLevelWithoutRestartStopsEveryProcessAndLeavesALoadableCheckpoint) {
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_kill0_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 300, pid)) << slurp(dir.string() + ".out");
+  const pid_t fine = pid_of(dir, "level 'fine'");
+  ASSERT_GT(fine, 0);
+  ASSERT_EQ(kill(fine, SIGKILL), 0);
+  EXPECT_EQ(wait_exit(pid), 128 + SIGKILL);
+  const std::string out = slurp(dir.string() + ".out");
+  EXPECT_NE(out.find("level 'fine' (pid " + std::to_string(fine) + ") was killed by signal 9"), std::string::npos) << out;
+  expect_no_process_left(dir);
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "failed");
+  EXPECT_NE(s["reason"].get<std::string>().find("level 'fine'"), std::string::npos);
+  // The last consistent checkpoint loads: the run resumes from it and completes with an exact balance.
+  ASSERT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
+      << slurp(dir.string() + ".out");
+  const auto r = read_json(dir / "summary.json");
+  EXPECT_EQ(r["status"], "completed");
+  check_region(dir, r, 0, "fine");
   fs::remove_all(dir);
   fs::remove(dir.string() + ".out");
 }
