@@ -260,10 +260,7 @@ int Service::loop() {
     }
     const double t = now();
     if (!started_) {
-      if (requests().stop.load()) {
-        fail("interrupted before every level registered (no checkpoint)");
-        return 2;
-      }
+      // A stop asked for now still waits for the levels: the first checkpoint boundary stops them.
       if (all(&Peer::registered)) {
         started_ = true;
         for (auto& p : peers_) p.last_seen = t;
