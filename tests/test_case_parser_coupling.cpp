@@ -188,6 +188,21 @@ TEST(CaseParserErrors, CouplingRefusesConditionalEvents) {
                   "events[0].mean_speed_below", "different time on each level of a multi-level case; give at");
 }
 
+TEST(CaseParser, SwapEntriesRead) {
+  const CaseSpec c = parse_case(two_levels() + "\n[[swap]]\nlevel = \"fine\"\nat = 0.5\nbinary = \"/opt/dem_level2\"\n",
+                                kFixture);
+  ASSERT_EQ(c.swaps.size(), 1u);
+  EXPECT_EQ(c.swaps[0].level, "fine");
+  EXPECT_DOUBLE_EQ(c.swaps[0].at, 0.5);
+  EXPECT_EQ(c.swaps[0].binary, "/opt/dem_level2");
+}
+
+TEST(CaseParserErrors, SwapOfAnUnknownLevel) {
+  expect_error_in(two_levels() + "\n[[swap]]\nlevel = \"fine\"\nat = 0.5\nbinary = \"/opt/x\"\n",
+                  Edit{"level = \"fine\"\nat", "level = \"medium\"\nat", "level = \"medium\""}, "swap[0].level",
+                  "'medium' is not a [[levels]] entry");
+}
+
 TEST(CaseParserErrors, CheckpointEveryNegativeAndRestartsOutOfRange) {
   expect_error_in(two_levels(), Edit{"heartbeat = 0.5", "heartbeat = 0.5\ncheckpoint_every = -1", "checkpoint_every"},
                   "coupling.checkpoint_every", "-1");

@@ -288,7 +288,7 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   const Table root(doc, tbl, "");
   root.allow({"title", "seed", "gravity", "materials", "interactions", "contact", "levels", "domain", "walls",
               "insertion", "particles", "initial", "events", "probes", "grids", "output", "stability", "time",
-              "coupling", "launcher"},
+              "coupling", "launcher", "swap"},
              "the top level");
   for (const char* k : {"materials", "interactions", "levels"})
     if (!root.has(k)) fail(doc, 1, k, "missing required table; add at least one [[" + std::string(k) + "]] entry");

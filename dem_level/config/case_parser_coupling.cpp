@@ -211,6 +211,21 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
 }
 
 void read_launcher(const Table& root, CaseSpec& spec) {
+  for (const Table& w : array_of_tables(root, "swap")) {
+    if (spec.levels.size() < 2)
+      w.fail_table("[[swap]] replaces a level of a multi-level run; a single-level case has none: remove it");
+    w.allow({"level", "at", "binary"});
+    SwapSpec s;
+    s.loc = w.loc();
+    s.level = w.required_string("level", "the name of a [[levels]] entry");
+    const bool known = std::any_of(spec.levels.begin(), spec.levels.end(), [&](const LevelSpec& l) { return l.name == s.level; });
+    w.check("level", known, "'" + s.level + "' is not a [[levels]] entry of this case");
+    s.at = w.required_number("at", "the simulated time [s] of the swap");
+    w.non_negative("at", s.at, "s of simulated time");
+    s.binary = w.required_string("binary", "the path of the new solver binary");
+    if (!s.binary.empty() && s.binary.front() != '/' && !spec.dir.empty()) s.binary = spec.dir + "/" + s.binary;
+    spec.swaps.push_back(std::move(s));
+  }
   const auto t = root.table("launcher");
   if (!t) return;
   if (spec.levels.size() < 2)

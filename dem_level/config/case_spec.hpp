@@ -225,6 +225,13 @@ struct CouplingSpec {              // [coupling]
   SourceLoc loc;
 };
 
+struct SwapSpec {                  // [[swap]]: replace a level's binary during a multi-level run
+  std::string level;               // level = "name": a [[levels]] entry
+  double at = 0.0;                 // at [s] >= 0: simulated time; the swap happens at the next consistent checkpoint
+  std::string binary;              // binary: path of the new solver (relative to the case's folder)
+  SourceLoc loc;
+};
+
 struct LauncherSpec {              // [launcher]: how `mlcg run` supervises a hierarchy
   int restart_on_failure = 0;      // restart_on_failure >= 0: restarts from the last consistent checkpoint
                                    //   after a process of the hierarchy died; 0 = stop every process
@@ -254,6 +261,7 @@ struct CaseSpec {
   TimeSpec time;
   std::optional<CouplingSpec> coupling;  // [coupling]: only in multi-level cases
   LauncherSpec launcher;                 // [launcher]: only in multi-level cases
+  std::vector<SwapSpec> swaps;           // [[swap]]: only in multi-level cases
 };
 
 }  // namespace mlcg::config
