@@ -57,4 +57,14 @@ RunInfo read_run_info(const fs::path& run_dir) {
   return r;
 }
 
+nlohmann::json read_json_or_null(const fs::path& p) {
+  std::ifstream in(p);
+  if (!in) return nullptr;
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const std::exception&) {
+    return nullptr;
+  }
+}
+
 }  // namespace mlcg::launcher

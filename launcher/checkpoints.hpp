@@ -8,6 +8,8 @@
 #include <optional>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 namespace mlcg::launcher {
 
 struct ResumePoint {
@@ -28,5 +30,8 @@ struct RunInfo {
 void write_run_info(const std::filesystem::path& run_dir, const RunInfo& info);
 // Throws std::runtime_error when RUN_DIR is not the run folder of a hierarchy.
 RunInfo read_run_info(const std::filesystem::path& run_dir);
+
+// A JSON file of the run folder, or null when it is missing or unreadable (being replaced, not yet written).
+nlohmann::json read_json_or_null(const std::filesystem::path& p);
 
 }  // namespace mlcg::launcher

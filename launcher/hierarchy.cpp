@@ -16,6 +16,7 @@
 #include "process.hpp"
 #include "status.hpp"
 #include "supervise.hpp"
+#include "swap.hpp"
 
 namespace fs = std::filesystem;
 
@@ -96,7 +97,7 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Ou
 
 // The coupler's and every level's command line; from a consistent checkpoint when `from` is set.
 std::vector<Member> members_of(const config::CaseSpec& cs, const std::string& case_file, const fs::path& run_dir,
-                               const std::string& ep, const std::optional<ResumePoint>& from) {
+                               const std::string& ep, const std::optional<ResumePoint>& from, const Swapper& swaps) {
   const fs::path bin(own_directory());
   std::vector<Member> m;
   std::vector<std::string> coupler{(bin / "coupler_service").string(), case_file, "--out", run_dir.string(),
@@ -106,7 +107,7 @@ std::vector<Member> members_of(const config::CaseSpec& cs, const std::string& ca
   for (const auto& lvl : cs.levels) {
     std::vector<std::string> argv;
     if (lvl.ranks > 1) argv = mpirun_prefix(lvl.ranks);
-    argv.push_back((bin / "dem_level").string());
+    argv.push_back(swaps.binary(lvl.name));
     argv.insert(argv.end(), {case_file, "--out", (run_dir / "levels" / lvl.name).string(), "--level", lvl.name,
                              "--coupler", ep, "--quiet"});
     if (from) {
@@ -156,34 +157,53 @@ int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file
   for (const auto& lvl : cs.levels)
     std::printf("mlcg: level '%s' (alpha %g, dt %g s, %d rank(s))\n", lvl.name.c_str(), lvl.alpha, lvl.dt, lvl.ranks);
   StatusBoard board(run_dir, case_file, !quiet && isatty(STDOUT_FILENO));
+  Swapper swaps(cs, run_dir, (fs::path(own_directory()) / "dem_level").string());
   Outcome r;
-  int attempt = 0;
+  int attempt = 0, restarts = 0;
   for (;; ++attempt) {
     if (from)
       std::printf("mlcg: continuing from the consistent checkpoint at interval %llu (t = %.6g s)\n",
                   static_cast<unsigned long long>(from->interval), from->sim_time);
     std::fflush(stdout);
-    auto members = members_of(cs, case_file, run_dir, ep, from);
+    auto members = members_of(cs, case_file, run_dir, ep, from, swaps);
     SuperviseOptions so;
     so.interrupt_grace = cs.coupling->timeout + 30.0;
-    so.tick = [&](const std::vector<Member>& m, const char* phase) { board.update(m, phase, attempt); };
+    so.tick = [&](const std::vector<Member>& m, const char* phase) {
+      board.update(m, phase, attempt);
+      swaps.poll(board.sim_time());
+    };
+    so.want_stop = [&] { return swaps.want_stop(); };
     r = supervise(members, so);
     board.end_line();
-    const bool retry = r.exit_code != 0 && !r.interrupted && attempt < cs.launcher.restart_on_failure;
-    board.update(members, r.exit_code == 0 ? "completed" : r.interrupted ? "interrupted" : retry ? "restarting" : "failed",
+    // A swap continues from the checkpoint the stop wrote; a swapped-in binary that failed is replaced
+    // by the previous one, from the same checkpoint. Neither counts as a restart.
+    const bool swapping = r.stopped_for_swap && r.failed.empty();
+    const bool reverted = !swapping && r.exit_code != 0 && !r.interrupted && swaps.revert(r);
+    const bool retry = !swapping && !reverted && r.exit_code != 0 && !r.interrupted &&
+                       restarts < cs.launcher.restart_on_failure;
+    const bool again = swapping || reverted || retry;
+    board.update(members, again ? "restarting" : r.exit_code == 0 ? "completed" : r.interrupted ? "interrupted" : "failed",
                  attempt, true);
-    if (!retry) break;
+    if (!again) break;
     try {
       from = read_manifest(run_dir);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "mlcg: cannot restart: %s\n", e.what());
       break;
     }
-    std::fprintf(stderr, "mlcg: restarting the hierarchy (%d of %d restarts) from %s\n", attempt + 1,
+    if (swapping) {
+      if (!from) break;  // cannot happen: the stop wrote one
+      swaps.begin(from->interval);
+      continue;
+    }
+    if (reverted) continue;
+    ++restarts;
+    std::fprintf(stderr, "mlcg: restarting the hierarchy (%d of %d restarts) from %s\n", restarts,
                  cs.launcher.restart_on_failure,
                  from ? fmt::format("the consistent checkpoint at interval {}", from->interval).c_str()
                       : "the beginning (no consistent checkpoint yet)");
   }
+  swaps.finish(r.exit_code == 0);
   write_summary(cs, run_dir, r, attempt + 1);
   print_end(run_dir, r);
   return r.exit_code;

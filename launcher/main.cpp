@@ -15,6 +15,7 @@
 #include "config/case_parser.hpp"
 #include "hierarchy.hpp"
 #include "process.hpp"
+#include "control.hpp"
 #include "status.hpp"
 
 namespace fs = std::filesystem;
@@ -104,7 +105,14 @@ int main(int argc, char** argv) {
   auto* status = app.add_subcommand("status", "the multi-level runs under ./runs and their state");
   std::string runs_dir = "runs";
   status->add_option("--runs", runs_dir, "folder holding the run folders (default ./runs)");
+  auto* swap = app.add_subcommand("swap", "replace a level's binary in a running multi-level run (at its next "
+                                          "consistent checkpoint)");
+  std::string swap_level, swap_binary;
+  swap->add_option("run_dir", run_dir, "run folder")->required()->check(CLI::ExistingDirectory);
+  swap->add_option("--level", swap_level, "the level to swap")->required();
+  swap->add_option("--binary", swap_binary, "the new solver binary (same protocol)")->required();
   CLI11_PARSE(app, argc, argv);
+  if (swap->parsed()) return launcher::swap_command(run_dir, swap_level, swap_binary);
   if (run->parsed()) return run_case(case_file, out_dir, quiet);
   if (resume->parsed()) return launcher::resume_hierarchy(run_dir, quiet);
   if (ps->parsed()) return launcher::print_ps(run_dir);

@@ -1,6 +1,9 @@
 #include "status.hpp"
 
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <fstream>
@@ -9,6 +12,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "checkpoints.hpp"
 #include "io/atomic_file.hpp"
 
 namespace fs = std::filesystem;
@@ -24,16 +28,6 @@ std::string host_name() {
   char h[256] = {0};
   if (gethostname(h, sizeof h - 1) != 0) return "localhost";
   return h;
-}
-
-nlohmann::json read_json_or_null(const fs::path& p) {
-  std::ifstream in(p);
-  if (!in) return nullptr;
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const std::exception&) {
-    return nullptr;
-  }
 }
 
 std::string duration(double s) {
@@ -77,6 +71,7 @@ void StatusBoard::update(const std::vector<Member>& members, const std::string& 
     j["processes"].push_back({{"name", m.name}, {"pid", m.pid}, {"host", host_name()}, {"state", m.state}});
   const auto progress = read_json_or_null(run_dir_ / "coupling" / "progress.json");
   j["progress"] = progress;
+  if (progress.is_object()) sim_time_ = progress.value("sim_time", sim_time_);
   const auto manifest = read_json_or_null(run_dir_ / "checkpoints" / "manifest.json");
   if (manifest.is_object())
     j["checkpoint"] = {{"interval", manifest.value("interval", 0)}, {"sim_time", manifest.value("sim_time", 0.0)}};

@@ -18,6 +18,7 @@ class StatusBoard {
   // Writes status.json when `force` or a second has passed; refreshes the progress line.
   void update(const std::vector<Member>& members, const std::string& state, int attempt, bool force = false);
   void end_line();  // ends the progress line before other output
+  double sim_time() const { return sim_time_; }  // the coupler's latest progress (0 before any)
 
  private:
   std::filesystem::path run_dir_;
@@ -25,6 +26,7 @@ class StatusBoard {
   bool show_;
   double last_ = -1.0;
   bool line_open_ = false;
+  double sim_time_ = 0.0;
 };
 
 // `mlcg ps RUN_DIR`: 0, or 1 when RUN_DIR has no status.json.

@@ -22,6 +22,7 @@ Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
     m.state = "running";
   }
   bool aborting = false;
+  int coupler_code = -1;
   auto give_up = Clock::time_point::max(), kill_at = Clock::time_point::max();
   const auto stop_all = [&](int sig) {
     for (auto& m : members)
@@ -47,16 +48,25 @@ Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
       m.done = true;
       m.state = describe_exit(status);
       const int code = exit_code_of(status);
-      if (code != 0 && !out.interrupted && !aborting) {
+      if (&m == &members[0]) coupler_code = code;
+      if (code != 0 && !out.interrupted && !out.stopped_for_swap && !aborting) {
         out.failed = m.name + " (pid " + std::to_string(m.pid) + ") " + m.state;
+        out.failed_name = m.name;
         out.exit_code = code;
         std::fprintf(stderr, "\nmlcg: %s; stopping every other process\n", out.failed.c_str());
         abort_all();
       }
     }
     if (running == 0) break;
+    const bool quiet_stop = !out.interrupted && !out.stopped_for_swap && !aborting;
+    if (quiet_stop && opt.want_stop && opt.want_stop()) {
+      out.stopped_for_swap = true;
+      if (!members[0].done) kill(-members[0].pid, SIGINT);
+      give_up = after(opt.interrupt_grace);
+    }
     if (take_signal() != 0) {
       if (!out.interrupted && !aborting) {
+        out.stopped_for_swap = false;  // the user's stop wins: no swap
         out.interrupted = true;
         std::fprintf(stderr, "\nmlcg: interrupted: every level writes a consistent checkpoint at the next coupling "
                              "interval, then stops (interrupt again to stop at once)\n");
@@ -68,7 +78,8 @@ Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
       }
     }
     // The coupler is gone (it stopped the levels or failed): whoever is left gets a few seconds.
-    if (out.interrupted && !aborting && members[0].done && give_up > after(10.0)) give_up = after(10.0);
+    if ((out.interrupted || out.stopped_for_swap) && !aborting && members[0].done && give_up > after(10.0))
+      give_up = after(10.0);
     if (!aborting && Clock::now() > give_up) {
       std::fprintf(stderr, "\nmlcg: the stop with a consistent checkpoint did not finish; stopping every process\n");
       abort_all();
@@ -77,9 +88,12 @@ Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
       stop_all(SIGKILL);
       kill_at = Clock::time_point::max();
     }
-    if (opt.tick) opt.tick(members, out.interrupted ? "stopping" : aborting ? "failing" : "running");
+    if (opt.tick)
+      opt.tick(members, out.interrupted ? "stopping" : aborting ? "failing" : out.stopped_for_swap ? "swapping" : "running");
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+  // The run reached its end before the stop: nothing to swap.
+  if (out.stopped_for_swap && coupler_code == 0 && out.failed.empty()) out.stopped_for_swap = false;
   if (out.interrupted && out.exit_code == 0) out.exit_code = 130;
   return out;
 }

@@ -4,7 +4,7 @@
 // process and how it ended, and stops the others:
 //   a process fails      -> SIGTERM to the others (the coupler stops without a checkpoint, the levels write
 //                           their own checkpoint.h5), SIGKILL after a grace period;
-//   SIGINT/SIGTERM to us -> SIGINT to the coupler, which has every level write a consistent checkpoint at
+//   SIGINT/SIGTERM to us or want_stop() -> SIGINT to the coupler, which has every level write a consistent checkpoint at
 //                           the next interval boundary and stop; a second signal or a stuck stop -> SIGTERM.
 // supervise() returns only when no process of the attempt is left.
 #include <functional>
@@ -25,13 +25,16 @@ struct Member {
 struct Outcome {
   int exit_code = 0;         // 0; 130 when interrupted; else the exit code of the first process that failed
   bool interrupted = false;
-  std::string failed;        // the first process that failed, and how ("level 'fine' was killed by signal 9")
+  bool stopped_for_swap = false;  // stopped at a consistent checkpoint because want_stop() asked
+  std::string failed;        // the first process that failed, and how ("level 'fine' (pid 12) was killed by signal 9")
+  std::string failed_name;   // its Member::name
 };
 
 struct SuperviseOptions {
   double interrupt_grace = 90.0;  // [wall s] for the consistent checkpoint after an interrupt
   double kill_grace = 15.0;       // [wall s] between SIGTERM and SIGKILL
   std::function<void(const std::vector<Member>&, const char* phase)> tick;  // about every 50 ms
+  std::function<bool()> want_stop;  // true: stop with a consistent checkpoint (as an interrupt does), for a swap
 };
 
 // Starts every member (members[0] = the coupler) and supervises them.

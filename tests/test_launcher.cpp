@@ -356,3 +356,59 @@ TEST(MlcgRecovery, KilledFineLevelWithoutRestartStopsEveryProcessAndLeavesALoada
   fs::remove_all(dir);
   fs::remove(dir.string() + ".out");
 }
+
+// ---- Swapping a level's binary (issue 5) ----
+
+namespace {
+// Copies dem_level: a second binary of the same protocol.
+fs::path copy_of_dem_level(const std::string& tag) {
+  const fs::path copy = fs::temp_directory_path() / ("dem_level_" + tag + "_" + std::to_string(::getpid()));
+  fs::copy_file(kBin + "/dem_level", copy, fs::copy_options::overwrite_existing);
+  return copy;
+}
+}  // namespace
+
+TEST(MlcgSwap, AnotherProtocolIsRefusedAndTheOldBinaryContinuesThenACopySwapsIn) {
+  const fs::path copy = copy_of_dem_level("swap");
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_swap_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 200, pid)) << slurp(dir.string() + ".out");
+  const std::string swap = kBin + "/mlcg swap " + dir.string() + " --level fine --binary ";
+  EXPECT_EQ(run(swap + kBin + "/dem_level_protocol_test > " + dir.string() + ".swap1 2>&1"), 1);
+  const std::string refused = slurp(dir.string() + ".swap1");
+  EXPECT_NE(refused.find("refused"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("protocol version 99"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("continues with " + kBin + "/dem_level"), std::string::npos) << refused;
+  EXPECT_EQ(run(swap + copy.string() + " > " + dir.string() + ".swap2 2>&1"), 0) << slurp(dir.string() + ".swap2");
+  EXPECT_EQ(wait_exit(pid), 0) << slurp(dir.string() + ".out");
+  expect_no_process_left(dir);
+  const std::string log = slurp(dir / "coupler.log");
+  EXPECT_NE(log.find("level 'fine' registered: alpha 1, dt 1.2e-05 s, 1 rank(s), binary " + copy.string()),
+            std::string::npos) << log;
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  check_region(dir, s, 0, "fine");
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", dir.string() + ".swap1", dir.string() + ".swap2", copy.string()})
+    fs::remove(f);
+}
+
+TEST(MlcgSwap, CaseSwapEntryReplacesTheFineLevelAtItsTime) {
+  const fs::path copy = copy_of_dem_level("caseswap");
+  const fs::path cfile = case_with("[[swap]]\nlevel = \"fine\"\nat = 0.3\nbinary = \"" + copy.string() + "\"", "cswap");
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_cswap_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  ASSERT_EQ(run(kBin + "/mlcg run " + cfile.string() + " --out " + dir.string() + " --quiet > " + dir.string() +
+                ".out 2>&1"),
+            0) << slurp(dir.string() + ".out");
+  const std::string out = slurp(dir.string() + ".out");
+  EXPECT_NE(out.find("swapped: level 'fine' runs " + copy.string()), std::string::npos) << out;
+  EXPECT_NE(slurp(dir / "coupler.log").find("binary " + copy.string()), std::string::npos);
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  check_region(dir, s, 0, "fine");
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", cfile.string(), copy.string()}) fs::remove(f);
+}
