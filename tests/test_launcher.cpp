@@ -293,6 +293,8 @@ TEST(MlcgRecovery, InterruptThenResumeGivesTheUninterruptedResult) {
   EXPECT_EQ(read_json(dir / "levels" / "fine" / "summary.json")["mass_balance"],
             read_json(ref / "levels" / "fine" / "summary.json")["mass_balance"]);
   EXPECT_EQ(slurp(dir / "levels" / "fine" / "series.csv"), slurp(ref / "levels" / "fine" / "series.csv"));
+  EXPECT_EQ(read_json(dir / "levels" / "fine" / "summary.json")["levels"][0]["coupling"],
+            read_json(ref / "levels" / "fine" / "summary.json")["levels"][0]["coupling"]);
   for (const auto& d : {ref, dir}) {
     fs::remove_all(d);
     fs::remove(d.string() + ".out");

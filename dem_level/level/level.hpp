@@ -220,6 +220,7 @@ class Level {
   int64_t removed_ = 0;
   int64_t explicit_count_ = 0;      // the case's [[particles]] and [initial] particles
   double explicit_mass_ = 0.0;
+  CouplingReport coupling_restored_;  // a coupled level's counters from its checkpoint (inserted, worst overlap)
   double removed_mass_ = 0.0;
   uint64_t particle_steps_ = 0;
   size_t max_particles_ = 0;

@@ -120,6 +120,8 @@ void Level::connect_coupler() {
                                          w.start_interval(), start));
   c->sample_every = std::max<uint64_t>(1, c->steps / kSamplesPerInterval);
   c->k = start;
+  c->inserted = coupling_restored_.inserted;  // the run before the checkpoint's, so the report covers the whole run
+  c->worst_overlap = coupling_restored_.worst_insert_overlap;
   for (int g = 0; g < w.grids_size(); ++g) {
     const auto& grid = w.grids(g);
     const bool coarse = grid.coarse_level() == w.level_index(), fine = grid.fine_level() == w.level_index();
