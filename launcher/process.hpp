@@ -35,6 +35,12 @@ std::string describe_exit(int status);
 // The exit code the launcher reports for a child's waitpid status: its code, or 128 + signal.
 int exit_code_of(int status);
 
+// Orphans of our children (the ranks of a killed mpirun, which Open MPI puts in their own process groups)
+// become our children instead of init's, so none outlives the run: end_strays() stops (SIGTERM, SIGKILL
+// after `grace` seconds) and reaps every child left once the known ones are reaped.
+void become_subreaper();
+void end_strays(double grace);
+
 // The folder holding the running executable (to find dem_level beside mlcg).
 std::string own_directory();
 // `mpirun` arguments for n ranks: adds the flags Open MPI needs as root and when oversubscribing.

@@ -80,7 +80,7 @@ void StatusBoard::update(const std::vector<Member>& members, const std::string& 
   } catch (const std::exception& e) {
     std::fprintf(stderr, "mlcg: cannot write status.json: %s\n", e.what());
   }
-  if (!show_ || !progress.is_object()) return;
+  if (!show_ || !progress.is_object() || force) return;  // forced: the final state, after the line ended
   std::printf("\r\033[K%s | ETA %s", level_progress(progress).c_str(), duration(progress.value("eta_seconds", -1.0)).c_str());
   std::fflush(stdout);
   line_open_ = true;

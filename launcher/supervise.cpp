@@ -15,6 +15,7 @@ Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
   const auto after = [](double s) { return Clock::now() + std::chrono::milliseconds(static_cast<int64_t>(s * 1000)); };
   catch_signals();
   take_signal();
+  become_subreaper();
   Outcome out;
   for (auto& m : members) {
     m.pid = spawn(m.argv);
@@ -47,6 +48,7 @@ Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
       }
       m.done = true;
       m.state = describe_exit(status);
+      kill(-m.pid, SIGTERM);  // what it leaves behind in its group (the ranks of a killed mpirun)
       const int code = exit_code_of(status);
       if (&m == &members[0]) coupler_code = code;
       if (code != 0 && !out.interrupted && !out.stopped_for_swap && !aborting) {
@@ -92,6 +94,8 @@ Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
       opt.tick(members, out.interrupted ? "stopping" : aborting ? "failing" : out.stopped_for_swap ? "swapping" : "running");
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+  for (const auto& m : members) kill(-m.pid, SIGKILL);  // no process of the attempt outlives it
+  end_strays(opt.kill_grace);
   // The run reached its end before the stop: nothing to swap.
   if (out.stopped_for_swap && coupler_code == 0 && out.failed.empty()) out.stopped_for_swap = false;
   if (out.interrupted && out.exit_code == 0) out.exit_code = 130;

@@ -233,8 +233,24 @@ bool wait_for_checkpoint(const fs::path& dir, uint64_t k, pid_t launcher) {
   return false;
 }
 
-// Every process status.json lists (the last attempt's) is gone.
+// Processes whose command line names the run folder (the launcher's children and their MPI ranks).
+std::vector<std::string> processes_naming(const fs::path& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string pid = e.path().filename().string();
+    if (pid.find_first_not_of("0123456789") != std::string::npos || std::stoi(pid) == ::getpid()) continue;
+    std::ifstream in(e.path() / "cmdline");
+    std::string cmd((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::replace(cmd.begin(), cmd.end(), '\0', ' ');
+    if (cmd.find(dir.string() + "/") != std::string::npos || cmd.find(dir.string() + " ") != std::string::npos)
+      out.push_back(pid + ": " + cmd);
+  }
+  return out;
+}
+
+// Every process status.json lists (the last attempt's) is gone, and none names the run folder.
 void expect_no_process_left(const fs::path& dir) {
+  for (const auto& p : processes_naming(dir)) ADD_FAILURE() << "still running: " << p;
   const auto st = read_json(dir / "status.json");
   ASSERT_FALSE(st["processes"].empty());
   for (const auto& p : st["processes"]) {
@@ -331,6 +347,28 @@ TEST(MlcgRecovery, KilledFineLevelIsRestartedFromTheLastCheckpointAndTheRunCompl
   check_region(dir, s, 0, "fine");
   fs::remove_all(dir);
   for (const auto& f : {dir.string() + ".out", dir.string() + ".ps", cfile.string()}) fs::remove(f);
+}
+
+TEST(MlcgRecovery, KilledMpirunOfATwoRankFineLevelLeavesNoRankBehind) {
+  std::string text = slurp(kSrc + "/cases/quickstart/mlcg.toml");
+  const std::string fine = "name = \"fine\"\nalpha = 1.0\ndt_alpha1 = 1.2e-5\n";
+  ASSERT_NE(text.find(fine), std::string::npos);
+  text.replace(text.find(fine), fine.size(), fine + "ranks = 2\n");
+  const fs::path cfile = fs::temp_directory_path() / ("mlcg_mpikill_" + std::to_string(::getpid()) + ".toml");
+  std::ofstream(cfile) << text;
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_mpikill_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 200, pid)) << slurp(dir.string() + ".out");
+  const pid_t mpirun = pid_of(dir, "level 'fine'");
+  ASSERT_GT(mpirun, 0);
+  EXPECT_GE(processes_naming(dir).size(), 4u) << "coupler, coarse level, mpirun and its two ranks";
+  ASSERT_EQ(kill(mpirun, SIGKILL), 0);
+  EXPECT_EQ(wait_exit(pid), 128 + SIGKILL) << slurp(dir.string() + ".out");
+  expect_no_process_left(dir);  // the ranks Open MPI put in their own process groups included
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".out");
+  fs::remove(cfile);
 }
 
 TEST(MlcgRecovery, KilledFineLevelWithoutRestartStopsEveryProcessAndLeavesALoadableCheckpoint) {
