@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -166,6 +167,8 @@ int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file
                   static_cast<unsigned long long>(from->interval), from->sim_time);
     std::fflush(stdout);
     auto members = members_of(cs, case_file, run_dir, ep, from, swaps);
+    std::error_code gone;
+    fs::remove(run_dir / "coupling" / "progress.json", gone);  // the previous attempt's
     SuperviseOptions so;
     so.interrupt_grace = cs.coupling->timeout + 30.0;
     so.tick = [&](const std::vector<Member>& m, const char* phase) {
@@ -175,6 +178,10 @@ int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file
     so.want_stop = [&] { return swaps.want_stop(); };
     r = supervise(members, so);
     board.end_line();
+    if (r.failed_name == "coupler") {  // its reason is in its log and summary (it runs --quiet)
+      const auto why = read_json(run_dir / "coupling" / "summary.json").value("error", "");
+      if (!why.empty()) r.failed += ": " + why;
+    }
     // A swap continues from the checkpoint the stop wrote; a swapped-in binary that failed is replaced
     // by the previous one, from the same checkpoint. Neither counts as a restart.
     const bool swapping = r.stopped_for_swap && r.failed.empty();
@@ -221,6 +228,12 @@ int resume_hierarchy(const std::string& run_folder, bool quiet) {
   const fs::path run_dir(run_folder);
   try {
     const RunInfo info = read_run_info(run_dir);
+    const auto st = read_json_or_null(run_dir / "status.json");
+    const std::string state = st.is_object() ? st.value("state", "") : "";
+    if (st.is_object() && kill(st.value("launcher_pid", -1), 0) == 0 && state != "completed" &&
+        state != "interrupted" && state != "failed")
+      throw std::runtime_error("the run is still going (launcher pid " + std::to_string(st.value("launcher_pid", -1)) +
+                               "); stop it first (Ctrl-C, or kill -INT that pid)");
     const auto from = read_manifest(run_dir);
     if (!from)
       throw std::runtime_error(run_dir.string() + " has no consistent checkpoint (checkpoints/manifest.json); start "

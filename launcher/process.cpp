@@ -130,7 +130,13 @@ std::vector<pid_t> own_children() {
 }  // namespace
 
 void end_strays(double grace) {
+  // Helpers that end with their parent (Open MPI's singleton daemon of a 1-rank level) get a second.
   auto strays = own_children();
+  for (int i = 0; i < 20 && !strays.empty(); ++i) {
+    for (const pid_t p : strays) waitpid(p, nullptr, WNOHANG);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    strays = own_children();
+  }
   if (strays.empty()) return;
   std::fprintf(stderr, "mlcg: stopping %zu process(es) left behind by the run\n", strays.size());
   for (const pid_t p : strays) kill(p, SIGTERM);
