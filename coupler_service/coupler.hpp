@@ -70,6 +70,12 @@ class Coupler {
   // the faces, so the totals count what the fine levels really inserted.
   void cancel_last_insertions();
 
+  // The state a resumed run needs (faces, controllers, the latest insertion lists), and back
+  // (coupler_checkpoint.cpp). restore() throws std::invalid_argument when the checkpoint does not
+  // fit this case's grids.
+  void save(bus::CouplerCheckpoint& out) const;
+  void restore(const bus::CouplerCheckpoint& in);
+
   const bus::CouplingGeometry& geometry(size_t r) const { return regions_[r]->geo; }
   const InsertionPlanner& planner(size_t r) const { return regions_[r]->planner; }
   const RegionLog& log(size_t r) const { return regions_[r]->log; }

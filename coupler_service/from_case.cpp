@@ -131,4 +131,10 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
   return out;
 }
 
+uint64_t checkpoint_intervals(const config::CaseSpec& cs) {
+  double every = cs.coupling->checkpoint_every;
+  if (every <= 0.0) every = kDefaultCheckpointEvery;
+  return std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(every / cs.coupling->interval)));
+}
+
 }  // namespace mlcg::coupling

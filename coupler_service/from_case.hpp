@@ -21,4 +21,9 @@ struct CaseCoupling {
 // region's box holds no cell inside the geometry (naming the region's line).
 CaseCoupling coupling_from_case(const config::CaseSpec& cs);
 
+// Coupling intervals between consistent checkpoints: [coupling] checkpoint_every (0 = the default:
+// often, because a stop waits for the next one), rounded to whole intervals, at least 1.
+inline constexpr double kDefaultCheckpointEvery = 0.02;  // s of simulated time
+uint64_t checkpoint_intervals(const config::CaseSpec& cs);
+
 }  // namespace mlcg::coupling

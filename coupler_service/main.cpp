@@ -4,6 +4,8 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <fstream>
+#include <iterator>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/basic_file_sink.h>
@@ -15,6 +17,24 @@
 #include "from_case.hpp"
 #include "io/atomic_file.hpp"
 #include "service.hpp"
+
+namespace {
+extern "C" void on_stop(int) { mlcg::coupling::requests().stop.store(true); }
+extern "C" void on_abort(int) { mlcg::coupling::requests().abort.store(true); }
+extern "C" void on_checkpoint(int) { mlcg::coupling::requests().checkpoint.store(true); }
+
+std::shared_ptr<const mlcg::bus::CouplerCheckpoint> read_resume(const std::string& path, const std::string& hash) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("--resume " + path + ": cannot read the coupler checkpoint");
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto c = std::make_shared<mlcg::bus::CouplerCheckpoint>();
+  if (!c->ParseFromString(bytes)) throw std::runtime_error("--resume " + path + ": not a coupler checkpoint");
+  if (c->case_hash() != hash)
+    throw std::runtime_error("--resume " + path + ": written for another case (hash " + c->case_hash() +
+                             ", this case's is " + hash + "); the case file changed since the checkpoint");
+  return c;
+}
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"coupler_service: the MLCG coupler of a multi-level case"};
@@ -30,6 +50,8 @@ int main(int argc, char** argv) {
   app.add_option("--curve-server-key", curve_key, "CURVE: this coupler's keypair file (with --curve-clients)");
   app.add_option("--curve-clients", curve_clients, "CURVE: the client public keys to accept (NAME KEY lines)");
   app.add_option("--endpoint-file", endpoint_file, "write the endpoint actually bound here (tcp://HOST:* picks a port)");
+  std::string resume;
+  app.add_option("--resume", resume, "continue from this coupler checkpoint (checkpoints/i<k>/coupler.pb)");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -62,6 +84,13 @@ int main(int argc, char** argv) {
     opt.case_hash = mlcg::bus::case_hash(case_file);
     opt.out_dir = out_dir;
     opt.max_intervals = max_intervals;
+    opt.checkpoint_every = mlcg::coupling::checkpoint_intervals(cs);
+    opt.end_time = cs.time.end;
+    if (!resume.empty()) opt.resume = read_resume(resume, opt.case_hash);
+    // Ctrl-C: a consistent checkpoint, then every level stops; SIGTERM: stop now; SIGUSR1: checkpoint.
+    std::signal(SIGINT, on_stop);
+    std::signal(SIGTERM, on_abort);
+    std::signal(SIGUSR1, on_checkpoint);
     mlcg::coupling::Service service(coupler, channel, opt, log);
     return service.run();
   } catch (const std::exception& e) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <sstream>
 
@@ -26,10 +27,25 @@ Service::Service(Coupler& coupler, bus::Channel& channel, ServiceOptions opt, st
     peers_.emplace_back();
     peers_.back().identity = l.name;
   }
+  if (opt_.resume) {
+    coupler_.restore(*opt_.resume);
+    k_ = opt_.resume->interval();
+    busy_ = opt_.resume->busy_seconds();
+    resume_cmds_.assign(opt_.resume->commands().begin(), opt_.resume->commands().end());
+    if (resume_cmds_.size() != peers_.size())
+      throw std::invalid_argument(fmt::format("coupler checkpoint: commands for {} levels, the case has {}",
+                                              resume_cmds_.size(), peers_.size()));
+  }
   if (!opt_.out_dir.empty()) {
     std::filesystem::create_directories(opt_.out_dir / "coupling");
+    if (opt_.resume) resume_logs();
     for (size_t r = 0; r < coupler_.config().regions.size(); ++r) {
-      csv_.emplace_back(opt_.out_dir / "coupling" / fmt::format("region{}.csv", r));
+      const auto path = opt_.out_dir / "coupling" / fmt::format("region{}.csv", r);
+      if (opt_.resume && std::filesystem::exists(path)) {
+        csv_.emplace_back(path, std::ios::app);
+        continue;
+      }
+      csv_.emplace_back(path);
       csv_.back() << "interval,time_s,crossed_kg,inserted_kg,remainder_kg,inserted_now,inserted_now_kg,"
                      "setpoint_mean_pa,measured_mean_pa,traction_mean_pa,traction_max_pa,acceleration_max\n";
     }
@@ -136,6 +152,7 @@ void Service::handle(const bus::Incoming& in) {
 
 void Service::send_commands(std::vector<bus::IntervalCommands> cmds) {
   const bool last = k_ + 1 >= opt_.max_intervals;
+  decide_checkpoint(cmds);
   // Finest level first: it is the slowest, and a coarser level woken first may take the core
   // from the coupler for a whole time slice before the next send (measured: 2 ms per interval).
   std::vector<size_t> order(peers_.size());
@@ -145,7 +162,7 @@ void Service::send_commands(std::vector<bus::IntervalCommands> cmds) {
   for (const size_t l : order) {
     if (peers_[l].finished) continue;
     bus::Envelope env;
-    cmds[l].set_stop(last && cmds[l].interval() > 0);
+    if (last && cmds[l].interval() > 0) cmds[l].set_stop(true);
     *env.mutable_commands() = std::move(cmds[l]);
     try {
       ch_.send(env, peers_[l].identity);
@@ -159,6 +176,7 @@ void Service::write_final(const std::string& status) const {
   if (opt_.out_dir.empty()) return;
   nlohmann::json j;
   j["status"] = status;
+  j["checkpoints"] = checkpoints_;
   j["error"] = error_;
   j["intervals"] = k_;
   j["interval_s"] = coupler_.config().interval;
@@ -216,7 +234,7 @@ void Service::write_logs() {
 int Service::run() {
   const int code = loop();
   try {
-    write_final(code == 0 ? "completed" : "failed");
+    write_final(code == 0 ? "completed" : code == kInterruptedCode ? "interrupted" : "failed");
   } catch (const std::exception& e) {
     log_->error("cannot write the coupling summary: {}", e.what());
   }
@@ -230,14 +248,23 @@ int Service::loop() {
   log_->info("coupler on {}: {} levels, {} region(s), interval {} s, waiting for registrations", ch_.endpoint(),
              cfg.levels.size(), cfg.regions.size(), cfg.interval);
   for (;;) {
-    if (auto in = ch_.receive(poll)) handle(*in);
+    try {
+      if (auto in = ch_.receive(poll)) handle(*in);
+    } catch (const zmq::error_t& e) {
+      if (e.num() != EINTR) throw;  // a signal (a stop or checkpoint request) woke the poll
+    }
     if (!error_.empty()) return 2;
+    if (requests().abort.load()) {
+      fail(fmt::format("stopped by a signal at interval {} (no checkpoint)", k_));
+      return 2;
+    }
     const double t = now();
     if (!started_) {
+      // A stop asked for now still waits for the levels: the first checkpoint boundary stops them.
       if (all(&Peer::registered)) {
         started_ = true;
         for (auto& p : peers_) p.last_seen = t;
-        send_commands(coupler_.initial_commands());
+        send_commands(resume_cmds_.empty() ? coupler_.initial_commands() : std::move(resume_cmds_));
       } else if (t - t0 > cfg.timeout) {
         fail(fmt::format("level(s) {} did not register within {} s", names([](const Peer& p) { return !p.registered; }),
                          cfg.timeout));
@@ -248,12 +275,14 @@ int Service::loop() {
     if (all(&Peer::has_stats)) {
       std::vector<bus::IntervalStats> stats;
       for (auto& p : peers_) stats.push_back(std::move(p.stats));
+      write_progress(stats);
       try {
         const double b0 = now();
         auto cmds = coupler_.advance(k_, stats);
         write_logs();
-        busy_ += now() - b0;
         ++k_;
+        if (checkpoint_due_) write_checkpoint(stats, cmds);
+        busy_ += now() - b0;
         for (auto& p : peers_) p.has_stats = false;
         send_commands(std::move(cmds));
       } catch (const std::exception& e) {
@@ -267,7 +296,7 @@ int Service::loop() {
       log_->info("all levels finished after {} intervals; {} message(s) refused; coupler busy {:.2f} s", k_,
                  refused_, busy_);
       for (auto& f : csv_) f.flush();
-      return 0;
+      return stopping_ ? kInterruptedCode : 0;
     }
     // Levels share the end time: if one finished without statistics of k while
     // another delivered them, interval k can never complete.

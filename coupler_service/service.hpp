@@ -7,6 +7,14 @@
 // to stop (Bye, failed) and run() returns non-zero. A malformed, oversized or
 // wrong-version message is logged and answered with Refused; it never stops
 // the coupler.
+//
+// Consistent checkpoints (service_checkpoint.cpp): the commands of interval k
+// ask every level to write its checkpoint at the end of k into
+// checkpoints/i<k+1>/; the statistics of k name the file written; once every
+// level's are in, the coupler writes its own state (coupler.pb) there and
+// then checkpoints/manifest.json, which names the set. A run resumes from the
+// set the manifest names, and gives the results of an uninterrupted run.
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -26,14 +34,29 @@ struct ServiceOptions {
   std::string case_hash;                 // every level must register with this hash
   std::filesystem::path out_dir;         // coupling logs go to out_dir/coupling; empty = none
   uint64_t max_intervals = UINT64_MAX;   // stop (telling levels) after this many intervals
+  uint64_t checkpoint_every = 0;         // intervals between consistent checkpoints; 0 = on request only
+  std::shared_ptr<const bus::CouplerCheckpoint> resume;  // continue from this state (null = fresh start)
+  double end_time = -1.0;                // the case's end [s] (for the ETA in coupling/progress.json); < 0 = unknown
 };
+
+// Requests from signal handlers (coupler_service/main.cpp sets them; lock-free atomics):
+// checkpoint = a consistent checkpoint at the next interval boundary; stop = the same, then every
+// level stops (interrupted); abort = stop now without a checkpoint (the launcher's stop on a failure).
+struct Requests {
+  std::atomic<bool> checkpoint{false}, stop{false}, abort{false};
+};
+Requests& requests();
+
+// Exit code of run() after a requested stop with its checkpoint written.
+inline constexpr int kInterruptedCode = 130;
 
 class Service {
  public:
   Service(Coupler& coupler, bus::Channel& channel, ServiceOptions opt, std::shared_ptr<spdlog::logger> log);
   ~Service();
 
-  // 0 when every level finished and said bye; 2 on a failure (error() says which).
+  // 0 when every level finished and said bye; kInterruptedCode after a requested stop; 2 on a
+  // failure (error() says which).
   int run();
   const std::string& error() const { return error_; }
   uint64_t intervals() const { return k_; }
@@ -46,6 +69,8 @@ class Service {
     bool registered = false, finished = false, has_stats = false;
     double last_seen = 0.0;
     bus::IntervalStats stats;
+    double psteps = 0.0, pwall = 0.0;  // particle-steps and wall seconds since the last progress file
+    double rate = 0.0;                 // particle-steps per wall second, as last reported
   };
   int loop();
   void handle(const bus::Incoming& in);
@@ -56,6 +81,12 @@ class Service {
   void write_logs();
   // Per-face totals and a summary (coupling/faces_region<r>.csv, coupling/summary.json), atomically.
   void write_final(const std::string& status) const;
+  // Consistent checkpoints (service_checkpoint.cpp).
+  void decide_checkpoint(std::vector<bus::IntervalCommands>& cmds);  // flags for the commands of k_
+  void write_checkpoint(const std::vector<bus::IntervalStats>& stats, const std::vector<bus::IntervalCommands>& next);
+  void resume_logs();  // keeps the rows of region<r>.csv before the resumed interval
+  // coupling/progress.json (service_progress.cpp): per level simulated time, particles, particle-steps/s; ETA.
+  void write_progress(const std::vector<bus::IntervalStats>& stats);
   bool all(bool Peer::*flag) const;
   std::string names(const std::function<bool(const Peer&)>& pick) const;  // 'a', 'b'
 
@@ -68,6 +99,13 @@ class Service {
   uint64_t refused_ = 0;
   double busy_ = 0.0;       // wall seconds spent computing commands and logs
   bool started_ = false;
+  bool checkpoint_due_ = false;  // the commands of k_ asked for a checkpoint
+  bool stopping_ = false;        // the commands of k_ told every level to stop (requested stop)
+  uint64_t checkpoints_ = 0;     // consistent sets written
+  std::vector<bus::IntervalCommands> resume_cmds_;
+  double stop_since_ = -1.0;     // wall time of the stop request
+  static constexpr double kStopWaitSeconds = 10.0;  // a stop waits this long for a periodic boundary
+  double progress_wall_ = -1.0, start_wall_ = 0.0, start_sim_ = 0.0;  // for the progress file and its ETA
   std::string error_;
   std::vector<std::ofstream> csv_;
 };

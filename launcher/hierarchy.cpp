@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -10,7 +11,13 @@
 #include <nlohmann/json.hpp>
 
 #include "io/atomic_file.hpp"
+#include "bus/case_hash.hpp"
+#include "config/case_parser.hpp"
+#include "checkpoints.hpp"
 #include "process.hpp"
+#include "status.hpp"
+#include "supervise.hpp"
+#include "swap.hpp"
 
 namespace fs = std::filesystem;
 
@@ -44,12 +51,16 @@ nlohmann::json read_json(const fs::path& p) {
 
 // One summary over the hierarchy: every level's entry, the finest level's
 // probes (data at the highest resolution available), overall status.
-void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const GroupResult& r) {
+void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Outcome& r, int attempts) {
   nlohmann::json s;
   s["case"] = cs.path;
   s["title"] = cs.title;
   s["status"] = r.exit_code == 0 ? "completed" : (r.interrupted ? "interrupted" : "failed");
-  s["reason"] = r.failed.empty() ? "" : r.failed + " exited with code " + std::to_string(r.exit_code);
+  s["reason"] = r.failed;
+  s["attempts"] = attempts;
+  if (const auto m = read_manifest(run_dir))
+    s["checkpoint"] = {{"interval", m->interval}, {"sim_time", m->sim_time},
+                       {"manifest", (run_dir / "checkpoints" / "manifest.json").string()}};
   s["levels"] = nlohmann::json::array();
   double wall = 0.0;
   const size_t finest = finest_level(cs);
@@ -85,59 +96,173 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Gr
   io::write_file_atomic(run_dir / "summary.json", s.dump(2) + "\n");
 }
 
-}  // namespace
-
-int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet,
-                  Placement placement) {
-  const fs::path run_dir(out_dir);
-  std::string ep = !cs.coupling->endpoint.empty() ? cs.coupling->endpoint : bus_endpoint(run_dir);
-  ep = placement.prepare(cs, run_dir, ep);  // hosts / CURVE hook (hosts.hpp)
+// The coupler's and every level's command line; from a consistent checkpoint when `from` is set.
+// Where each runs and its key files come from `pl` (hosts.hpp).
+std::vector<Member> members_of(const config::CaseSpec& cs, const std::string& case_file, const fs::path& run_dir,
+                               const std::string& ep, const std::optional<ResumePoint>& from, const Swapper& swaps,
+                               const Placement& pl) {
   const fs::path bin(own_directory());
-  std::printf("mlcg: case %s, %zu levels coupled over %s; run folder %s\n%s", case_file.c_str(), cs.levels.size(),
-              ep.c_str(), out_dir.c_str(), placement.describe().c_str());
-  std::vector<NamedChild> children;
-  std::vector<std::string> coupler = placement.launch_prefix("coupler", 1);
-  coupler.insert(coupler.end(), {(bin / "coupler_service").string(), case_file, "--out", out_dir, "--endpoint", ep});
-  if (quiet) coupler.push_back("--quiet");
-  for (auto& a : placement.extra_args("coupler")) coupler.push_back(a);
-  children.push_back({"coupler", spawn(coupler)});
-  ep = placement.bound_endpoint(children.back().pid);  // tcp://HOST:* resolved to the coupler's port
-  // Progress lines come from the finest level; the others write their logs only.
-  const size_t finest = finest_level(cs);
-  for (size_t l = 0; l < cs.levels.size(); ++l) {
-    const auto& lvl = cs.levels[l];
-    std::vector<std::string> argv = placement.launch_prefix(lvl.name, lvl.ranks);
-    argv.push_back((bin / "dem_level").string());
+  std::vector<Member> m;
+  std::vector<std::string> coupler = pl.launch_prefix("coupler", 1);
+  coupler.insert(coupler.end(), {(bin / "coupler_service").string(), case_file, "--out", run_dir.string(),
+                                 "--endpoint", ep, "--quiet"});
+  for (auto& a : pl.extra_args("coupler")) coupler.push_back(a);
+  if (from) coupler.insert(coupler.end(), {"--resume", from->coupler.string()});
+  m.push_back({"coupler", coupler});
+  for (const auto& lvl : cs.levels) {
+    std::vector<std::string> argv = pl.launch_prefix(lvl.name, lvl.ranks);
+    argv.push_back(swaps.binary(lvl.name));
     argv.insert(argv.end(), {case_file, "--out", (run_dir / "levels" / lvl.name).string(), "--level", lvl.name,
-                             "--coupler", ep});
-    if (quiet || l != finest) argv.push_back("--quiet");
-    for (auto& a : placement.extra_args(lvl.name)) argv.push_back(a);
-    std::printf("mlcg: level '%s' (alpha %g, dt %g s, %d rank(s))\n", lvl.name.c_str(), lvl.alpha,
-                lvl.dt, lvl.ranks);
-    children.push_back({"level '" + lvl.name + "'", spawn(argv)});
+                             "--coupler", ep, "--quiet"});
+    for (auto& a : pl.extra_args(lvl.name)) argv.push_back(a);
+    if (from) {
+      const auto it = from->levels.find(lvl.name);
+      if (it == from->levels.end())
+        throw std::runtime_error("the consistent checkpoint has no file for level '" + lvl.name + "'");
+      argv.insert(argv.end(), {"--restart", it->second.string()});
+    }
+    m.push_back({"level '" + lvl.name + "'", argv});
   }
-  std::fflush(stdout);
-  const GroupResult r = wait_group(children);
-  write_summary(cs, run_dir, r);
+  return m;
+}
+
+void print_end(const fs::path& run_dir, const Outcome& r) {
   const auto s = read_json(run_dir / "summary.json");
-  std::printf("\n== %s: %s ==\n", out_dir.c_str(), s.value("status", "?").c_str());
+  std::printf("\n== %s: %s ==\n", run_dir.c_str(), s.value("status", "?").c_str());
   for (const auto& l : s["levels"])
     std::printf("level %s: alpha %g, up to %d particles, %.1f s wall, %.3g particle-steps/s\n",
                 l.value("name", "?").c_str(), l.value("alpha", 0.0), l.value("particles_max", 0),
                 l.value("wall_seconds", 0.0), l.value("particle_steps_per_second", 0.0));
   if (s.contains("coupling") && s["coupling"].contains("regions"))
-    for (const auto& r : s["coupling"]["regions"])
+    for (const auto& g : s["coupling"]["regions"])
       std::printf("coupling: %llu fine particles inserted (%.6g kg of %.6g kg crossed, %.3g kg carried); overhead "
                   "%.1f %% of wall time\n",
-                  r.value("inserted_particles", 0ULL), r.value("inserted_kg", 0.0), r.value("crossed_kg", 0.0),
-                  r.value("remainder_kg", 0.0), 100.0 * s["coupling"].value("overhead_share", 0.0));
+                  g.value("inserted_particles", 0ULL), g.value("inserted_kg", 0.0), g.value("crossed_kg", 0.0),
+                  g.value("remainder_kg", 0.0), 100.0 * s["coupling"].value("overhead_share", 0.0));
   for (const auto& p : s["probes"])
     std::printf("probe %s (level %s): mass flow %.4f +- %.4f kg/s\n", p.value("name", "?").c_str(),
                 s.value("probes_from_level", "?").c_str(), p.value("mean_kg_per_s", 0.0), p.value("std_kg_per_s", 0.0));
-  if (r.exit_code != 0)
-    std::fprintf(stderr, "mlcg: %s exited with code %d; every other process was stopped\n", r.failed.c_str(),
-                 r.exit_code);
+  if (r.exit_code == 0) return;
+  if (!r.failed.empty()) std::fprintf(stderr, "mlcg: %s; every other process was stopped\n", r.failed.c_str());
+  if (s.contains("checkpoint"))
+    std::fprintf(stderr, "mlcg: last consistent checkpoint: interval %llu (t = %.6g s), %s; continue with `mlcg "
+                         "resume %s`\n", s["checkpoint"].value("interval", 0ULL), s["checkpoint"].value("sim_time", 0.0),
+                 s["checkpoint"].value("manifest", "").c_str(), run_dir.c_str());
+  else
+    std::fprintf(stderr, "mlcg: no consistent checkpoint was written yet\n");
+}
+
+// Runs the hierarchy (restarting it per [launcher] restart_on_failure) until it completes, is
+// interrupted or fails for good.
+int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const fs::path& run_dir, bool quiet,
+                        std::optional<ResumePoint> from, Placement placement) {
+  std::string ep = !cs.coupling->endpoint.empty() ? cs.coupling->endpoint : bus_endpoint(run_dir);
+  ep = placement.prepare(cs, run_dir, ep);  // hosts / CURVE (hosts.hpp)
+  std::printf("mlcg: case %s, %zu levels coupled over %s; run folder %s\n%s", case_file.c_str(), cs.levels.size(),
+              ep.c_str(), run_dir.c_str(), placement.describe().c_str());
+  for (const auto& lvl : cs.levels)
+    std::printf("mlcg: level '%s' (alpha %g, dt %g s, %d rank(s))\n", lvl.name.c_str(), lvl.alpha, lvl.dt, lvl.ranks);
+  StatusBoard board(run_dir, case_file, !quiet && isatty(STDOUT_FILENO));
+  Swapper swaps(cs, run_dir, (fs::path(own_directory()) / "dem_level").string());
+  Outcome r;
+  int attempt = 0, restarts = 0;
+  for (;; ++attempt) {
+    if (from)
+      std::printf("mlcg: continuing from the consistent checkpoint at interval %llu (t = %.6g s)\n",
+                  static_cast<unsigned long long>(from->interval), from->sim_time);
+    std::fflush(stdout);
+    auto members = members_of(cs, case_file, run_dir, ep, from, swaps, placement);
+    placement.forget_bound_endpoint();  // a restarted coupler binds afresh
+    std::error_code gone;
+    fs::remove(run_dir / "coupling" / "progress.json", gone);  // the previous attempt's
+    SuperviseOptions so;
+    so.interrupt_grace = cs.coupling->timeout + 30.0;
+    so.tick = [&](const std::vector<Member>& m, const char* phase) {
+      board.update(m, phase, attempt);
+      swaps.poll(board.sim_time());
+    };
+    so.want_stop = [&] { return swaps.want_stop(); };
+    so.coupler_started = [&](std::vector<Member>& m) {  // tcp://HOST:* becomes the port the coupler bound
+      const std::string bound = placement.bound_endpoint(m[0].pid);
+      for (size_t i = 1; i < m.size(); ++i)
+        for (size_t a = 0; a + 1 < m[i].argv.size(); ++a)
+          if (m[i].argv[a] == "--coupler") m[i].argv[a + 1] = bound;
+    };
+    r = supervise(members, so);
+    board.end_line();
+    if (r.failed_name == "coupler") {  // its reason is in its log and summary (it runs --quiet)
+      const auto why = read_json(run_dir / "coupling" / "summary.json").value("error", "");
+      if (!why.empty()) r.failed += ": " + why;
+    }
+    // A swap continues from the checkpoint the stop wrote; a swapped-in binary that failed is replaced
+    // by the previous one, from the same checkpoint. Neither counts as a restart.
+    const bool swapping = r.stopped_for_swap && r.failed.empty();
+    const bool reverted = !swapping && r.exit_code != 0 && !r.interrupted && swaps.revert(r);
+    const bool retry = !swapping && !reverted && r.exit_code != 0 && !r.interrupted &&
+                       restarts < cs.launcher.restart_on_failure;
+    const bool again = swapping || reverted || retry;
+    board.update(members, again ? "restarting" : r.exit_code == 0 ? "completed" : r.interrupted ? "interrupted" : "failed",
+                 attempt, true);
+    if (!again) break;
+    try {
+      from = read_manifest(run_dir);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "mlcg: cannot restart: %s\n", e.what());
+      break;
+    }
+    if (swapping) {
+      if (!from) break;  // cannot happen: the stop wrote one
+      swaps.begin(from->interval);
+      continue;
+    }
+    if (reverted) continue;
+    ++restarts;
+    std::fprintf(stderr, "mlcg: restarting the hierarchy (%d of %d restarts) from %s\n", restarts,
+                 cs.launcher.restart_on_failure,
+                 from ? fmt::format("the consistent checkpoint at interval {}", from->interval).c_str()
+                      : "the beginning (no consistent checkpoint yet)");
+  }
+  swaps.finish(r.exit_code == 0);
+  write_summary(cs, run_dir, r, attempt + 1);
+  print_end(run_dir, r);
   return r.exit_code;
+}
+
+}  // namespace
+
+int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet,
+                  Placement placement) {
+  const fs::path run_dir(out_dir);
+  write_run_info(run_dir, {fs::absolute(case_file).string()});
+  return supervise_hierarchy(cs, case_file, run_dir, quiet, std::nullopt, std::move(placement));
+}
+
+int resume_hierarchy(const std::string& run_folder, bool quiet) {
+  const fs::path run_dir(run_folder);
+  try {
+    const RunInfo info = read_run_info(run_dir);
+    const auto st = read_json_or_null(run_dir / "status.json");
+    const std::string state = st.is_object() ? st.value("state", "") : "";
+    if (st.is_object() && kill(st.value("launcher_pid", -1), 0) == 0 && state != "completed" &&
+        state != "interrupted" && state != "failed")
+      throw std::runtime_error("the run is still going (launcher pid " + std::to_string(st.value("launcher_pid", -1)) +
+                               "); stop it first (Ctrl-C, or kill -INT that pid)");
+    const auto from = read_manifest(run_dir);
+    if (!from)
+      throw std::runtime_error(run_dir.string() + " has no consistent checkpoint (checkpoints/manifest.json); start "
+                               "it again with `mlcg run`");
+    const config::CaseSpec cs = config::load_case(info.case_file);
+    if (bus::case_hash(info.case_file) != from->case_hash)
+      throw std::runtime_error(info.case_file + " changed since the checkpoint (hash " + bus::case_hash(info.case_file) +
+                               ", the checkpoint's " + from->case_hash + "); a run resumes with the case it started with");
+    return supervise_hierarchy(cs, info.case_file, run_dir, quiet, from, Placement{});  // resumes on this machine
+  } catch (const config::CaseError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: mlcg resume %s: %s\n", run_folder.c_str(), e.what());
+    return 2;
+  }
 }
 
 }  // namespace mlcg::launcher

@@ -233,6 +233,11 @@ std::string Placement::bound_endpoint(pid_t coupler, double timeout) const {
   }
 }
 
+void Placement::forget_bound_endpoint() const {
+  std::error_code ec;
+  if (!endpoint_file_.empty()) fs::remove(endpoint_file_, ec);
+}
+
 std::string Placement::describe() const {
   std::string out;
   for (const auto& [who, h] : where_)

@@ -68,6 +68,8 @@ class Placement {
   // The endpoint the coupler bound (waits for its endpoint file when remote). Stops the
   // coupler and throws when it exits or does not bind within `timeout` seconds.
   std::string bound_endpoint(pid_t coupler, double timeout = 60.0) const;
+  // Removes the endpoint file a previous coupler of this run wrote (before a restart).
+  void forget_bound_endpoint() const;
   // One line per process: where it runs.
   std::string describe() const;
 

@@ -5,7 +5,10 @@
 // runs a case folder's variants and compares their error and cost.
 #include <CLI/CLI.hpp>
 
+#include "control.hpp"
+#include "hierarchy.hpp"
 #include "run_case.hpp"
+#include "status.hpp"
 #include "study.hpp"
 
 using namespace mlcg;
@@ -34,9 +37,29 @@ int main(int argc, char** argv) {
   study->add_flag("--dry-run", so.dry_run, "check the study, list the variants and what would run; run nothing");
   study->add_flag("--quiet", so.quiet, "no progress lines from the runs");
   study->add_flag("--no-plots", no_plots, "write study.csv and study.md only");
+  auto* resume = app.add_subcommand("resume", "continue an interrupted or failed multi-level run from its last "
+                                              "consistent checkpoint");
+  std::string run_dir;
+  resume->add_option("run_dir", run_dir, "run folder")->required()->check(CLI::ExistingDirectory);
+  resume->add_flag("--quiet", quiet, "no progress line");
+  auto* ps = app.add_subcommand("ps", "processes and progress of a multi-level run");
+  ps->add_option("run_dir", run_dir, "run folder")->required()->check(CLI::ExistingDirectory);
+  auto* status = app.add_subcommand("status", "the multi-level runs under ./runs and their state");
+  std::string runs_dir = "runs";
+  status->add_option("--runs", runs_dir, "folder holding the run folders (default ./runs)");
+  auto* swap = app.add_subcommand("swap", "replace a level's binary in a running multi-level run (at its next "
+                                          "consistent checkpoint)");
+  std::string swap_level, swap_binary;
+  swap->add_option("run_dir", run_dir, "run folder")->required()->check(CLI::ExistingDirectory);
+  swap->add_option("--level", swap_level, "the level to swap")->required();
+  swap->add_option("--binary", swap_binary, "the new solver binary (same protocol)")->required();
   CLI11_PARSE(app, argc, argv);
   if (run->parsed()) return launcher::run_case(case_file, out_dir, quiet, hosts, curve);
   so.plots = !no_plots;
   if (study->parsed()) return launcher::run_study(so);
+  if (swap->parsed()) return launcher::swap_command(run_dir, swap_level, swap_binary);
+  if (resume->parsed()) return launcher::resume_hierarchy(run_dir, quiet);
+  if (ps->parsed()) return launcher::print_ps(run_dir);
+  if (status->parsed()) return launcher::print_status_all(runs_dir);
   return 0;
 }

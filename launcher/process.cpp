@@ -11,6 +11,8 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
+#include <sys/prctl.h>
 
 namespace mlcg::launcher {
 
@@ -36,12 +38,26 @@ pid_t spawn(const std::vector<std::string>& argv) {
   return pid;
 }
 
-GroupResult wait_group(const std::vector<NamedChild>& children, double grace) {
+void catch_signals() {
   struct sigaction sa {};
   sa.sa_handler = remember_signal;
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+}
+
+int take_signal() { return g_signal.exchange(0); }
+
+std::string describe_exit(int status) {
+  if (WIFSIGNALED(status))
+    return "was killed by signal " + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")";
+  return "exited with code " + std::to_string(WEXITSTATUS(status));
+}
+
+int exit_code_of(int status) { return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status); }
+
+GroupResult wait_group(const std::vector<NamedChild>& children, double grace) {
+  catch_signals();
   GroupResult r;
   std::vector<bool> done(children.size(), false);
   bool stopping = false;
@@ -61,7 +77,7 @@ GroupResult wait_group(const std::vector<NamedChild>& children, double grace) {
         continue;
       }
       done[c] = true;
-      const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      const int code = exit_code_of(status);
       if (code != 0 && r.failed.empty() && !stopping) {
         r.failed = children[c].name;
         r.exit_code = code;
@@ -87,6 +103,51 @@ GroupResult wait_group(const std::vector<NamedChild>& children, double grace) {
   }
   if (r.interrupted && r.exit_code == 0) r.exit_code = 130;
   return r;
+}
+
+void become_subreaper() { prctl(PR_SET_CHILD_SUBREAPER, 1); }
+
+namespace {
+std::vector<pid_t> own_children() {
+  std::vector<pid_t> out;
+  const pid_t self = getpid();
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator("/proc", ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream in(e.path() / "stat");
+    std::string stat;
+    std::getline(in, stat);
+    const auto close = stat.rfind(')');  // the command may hold spaces and parentheses
+    if (close == std::string::npos) continue;
+    char state = 0;
+    int ppid = 0;
+    if (std::sscanf(stat.c_str() + close + 1, " %c %d", &state, &ppid) == 2 && ppid == self)
+      out.push_back(static_cast<pid_t>(std::stoi(name)));
+  }
+  return out;
+}
+}  // namespace
+
+void end_strays(double grace) {
+  // Helpers that end with their parent (Open MPI's singleton daemon of a 1-rank level) get a second.
+  auto strays = own_children();
+  for (int i = 0; i < 20 && !strays.empty(); ++i) {
+    for (const pid_t p : strays) waitpid(p, nullptr, WNOHANG);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    strays = own_children();
+  }
+  if (strays.empty()) return;
+  std::fprintf(stderr, "mlcg: stopping %zu process(es) left behind by the run\n", strays.size());
+  for (const pid_t p : strays) kill(p, SIGTERM);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<int64_t>(grace * 1000));
+  while (!strays.empty()) {
+    for (const pid_t p : strays) waitpid(p, nullptr, WNOHANG);
+    strays = own_children();
+    if (std::chrono::steady_clock::now() > deadline)
+      for (const pid_t p : strays) kill(p, SIGKILL);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
 }
 
 std::string own_directory() {

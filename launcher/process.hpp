@@ -26,6 +26,21 @@ struct GroupResult {
 // seconds, so no process of the run outlives it.
 GroupResult wait_group(const std::vector<NamedChild>& children, double grace = 15.0);
 
+// SIGINT/SIGTERM to the launcher are remembered, not fatal; take_signal() returns the latest (0 = none)
+// and forgets it.
+void catch_signals();
+int take_signal();
+// "exited with code 3", "was killed by signal 9 (Killed)"; `status` as waitpid gives it.
+std::string describe_exit(int status);
+// The exit code the launcher reports for a child's waitpid status: its code, or 128 + signal.
+int exit_code_of(int status);
+
+// Orphans of our children (the ranks of a killed mpirun, which Open MPI puts in their own process groups)
+// become our children instead of init's, so none outlives the run: end_strays() stops (SIGTERM, SIGKILL
+// after `grace` seconds) and reaps every child left once the known ones are reaped.
+void become_subreaper();
+void end_strays(double grace);
+
 // The folder holding the running executable (to find dem_level beside mlcg).
 std::string own_directory();
 // `mpirun` arguments for n ranks: adds the flags Open MPI needs as root and when oversubscribing.

@@ -148,6 +148,18 @@ TEST(CaseParser, CouplingEveryKeyRead) {
   EXPECT_EQ(r.radius_bins, 4);
 }
 
+TEST(CaseParser, CheckpointEveryAndLauncherRead) {
+  const CaseSpec c = parse_case(
+      minimal_with("[[levels]]\nname = \"cg\"\nalpha = 2\ndt = 1e-5\n\n[[levels]]\nname = \"ref\"\ndt = 5e-6\n",
+                   "[launcher]\nrestart_on_failure = 3\n\n[coupling]\ncheckpoint_every = 0.05\n" + kRegion),
+      "ckpt.toml");
+  EXPECT_DOUBLE_EQ(c.coupling->checkpoint_every, 0.05);
+  EXPECT_EQ(c.launcher.restart_on_failure, 3);
+  const CaseSpec d = parse_case(two_levels(), kFixture);
+  EXPECT_EQ(d.launcher.restart_on_failure, 0);
+  EXPECT_DOUBLE_EQ(d.coupling->checkpoint_every, 0.0);
+}
+
 TEST(CaseParser, ThreeLevelHierarchy) {
   const CaseSpec c = parse_case(
       minimal_with("[[levels]]\nname = \"cg4\"\nalpha = 4\ndt = 2e-5\n\n[[levels]]\nname = \"cg\"\nalpha = 2\n"
@@ -174,6 +186,30 @@ TEST(CaseParserErrors, CouplingUnknownKeyInRegion) {
 TEST(CaseParserErrors, CouplingRefusesConditionalEvents) {
   expect_error_in(two_levels(), Edit{"at = 1.5\n", "mean_speed_below = 0.02\n", "mean_speed_below"},
                   "events[0].mean_speed_below", "different time on each level of a multi-level case; give at");
+}
+
+TEST(CaseParser, SwapEntriesRead) {
+  const CaseSpec c = parse_case(two_levels() + "\n[[swap]]\nlevel = \"fine\"\nat = 0.5\nbinary = \"/opt/dem_level2\"\n",
+                                kFixture);
+  ASSERT_EQ(c.swaps.size(), 1u);
+  EXPECT_EQ(c.swaps[0].level, "fine");
+  EXPECT_DOUBLE_EQ(c.swaps[0].at, 0.5);
+  EXPECT_EQ(c.swaps[0].binary, "/opt/dem_level2");
+}
+
+TEST(CaseParserErrors, SwapOfAnUnknownLevel) {
+  expect_error_in(two_levels() + "\n[[swap]]\nlevel = \"fine\"\nat = 0.5\nbinary = \"/opt/x\"\n",
+                  Edit{"level = \"fine\"\nat", "level = \"medium\"\nat", "level = \"medium\""}, "swap[0].level",
+                  "'medium' is not a [[levels]] entry");
+}
+
+TEST(CaseParserErrors, CheckpointEveryNegativeAndRestartsOutOfRange) {
+  expect_error_in(two_levels(), Edit{"heartbeat = 0.5", "heartbeat = 0.5\ncheckpoint_every = -1", "checkpoint_every"},
+                  "coupling.checkpoint_every", "-1");
+  expect_error_in(two_levels(), Edit{"[coupling]", "[launcher]\nrestart_on_failure = -2\n\n[coupling]", "restart_on_failure"},
+                  "launcher.restart_on_failure", "-2 is outside [0, 100]");
+  expect_error(Edit{"[time]", "[launcher]\nrestart_on_failure = 1\n\n[time]", "[launcher]"}, "launcher",
+               "a single-level case has nothing to restart");
 }
 
 TEST(CaseParserErrors, CouplingUnknownKeyInSection) {

@@ -9,6 +9,9 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <csignal>
+#include <cerrno>
+#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -141,4 +144,269 @@ TEST(MlcgRun, ThreeLevelHopperNestsTwoRegionsThroughTheMiddleLevel) {
   EXPECT_GT(s["probes"][0]["total_mass_kg"].get<double>(), 0.1 * inserted);
   fs::remove_all(dir);
   fs::remove(dir.string() + ".out");
+}
+
+// ---- Consistent checkpoints, interrupt and resume, failures (issue 5) ----
+
+namespace {
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  return {(std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()};
+}
+
+// Starts `mlcg ARGS` in the background (output to `log`); returns its pid.
+pid_t start_mlcg(const std::vector<std::string>& args, const fs::path& log) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(fd, 1);
+    dup2(fd, 2);
+    std::vector<std::string> a{kBin + "/mlcg"};
+    a.insert(a.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& s : a) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+int wait_exit(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+// Waits (generously: the machine may be loaded) until the run's manifest names interval >= k.
+bool wait_for_checkpoint(const fs::path& dir, uint64_t k, pid_t launcher) {
+  for (int i = 0; i < 1200; ++i) {
+    try {
+      if (read_json(dir / "checkpoints" / "manifest.json")["interval"].get<uint64_t>() >= k) return true;
+    } catch (const std::exception&) {  // not there yet
+    }
+    if (waitpid(launcher, nullptr, WNOHANG) == launcher) return false;
+    usleep(100000);
+  }
+  return false;
+}
+
+// Processes whose command line names the run folder (the launcher's children and their MPI ranks).
+std::vector<std::string> processes_naming(const fs::path& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string pid = e.path().filename().string();
+    if (pid.find_first_not_of("0123456789") != std::string::npos || std::stoi(pid) == ::getpid()) continue;
+    std::ifstream in(e.path() / "cmdline");
+    std::string cmd((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::replace(cmd.begin(), cmd.end(), '\0', ' ');
+    if (cmd.find(dir.string() + "/") != std::string::npos || cmd.find(dir.string() + " ") != std::string::npos)
+      out.push_back(pid + ": " + cmd);
+  }
+  return out;
+}
+
+// Every process status.json lists (the last attempt's) is gone, and none names the run folder.
+void expect_no_process_left(const fs::path& dir) {
+  for (const auto& p : processes_naming(dir)) ADD_FAILURE() << "still running: " << p;
+  const auto st = read_json(dir / "status.json");
+  ASSERT_FALSE(st["processes"].empty());
+  for (const auto& p : st["processes"]) {
+    const pid_t pid = p["pid"].get<pid_t>();
+    EXPECT_TRUE(kill(pid, 0) != 0 && errno == ESRCH) << p["name"] << " (pid " << pid << ") is still alive";
+  }
+}
+
+pid_t pid_of(const fs::path& dir, const std::string& name) {
+  for (int i = 0; i < 100; ++i) {
+    try {
+      const auto st = read_json(dir / "status.json");
+      for (const auto& p : st["processes"])
+        if (p["name"] == name && p["state"] == "running") return p["pid"].get<pid_t>();
+    } catch (const std::exception&) {
+    }
+    usleep(100000);
+  }
+  return -1;
+}
+
+fs::path case_with(const std::string& extra, const std::string& tag) {
+  const fs::path c = fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()) + ".toml");
+  std::ofstream(c) << slurp(kSrc + "/cases/quickstart/mlcg.toml") << "\n" << extra << "\n";
+  return c;
+}
+}  // namespace
+
+TEST(MlcgRecovery, InterruptThenResumeGivesTheUninterruptedResult) {
+  const fs::path ref = run_hierarchy_case("mlcg.toml", "ref");
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_int_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 300, pid)) << slurp(dir.string() + ".out");
+  kill(pid, SIGINT);
+  EXPECT_EQ(wait_exit(pid), 130) << slurp(dir.string() + ".out");
+  expect_no_process_left(dir);
+  const auto cut = read_json(dir / "summary.json");
+  EXPECT_EQ(cut["status"], "interrupted");
+  const uint64_t k = read_json(dir / "checkpoints" / "manifest.json")["interval"].get<uint64_t>();
+  EXPECT_GE(k, 300u);
+  EXPECT_LT(cut["simulated_time"].get<double>(), 0.59) << "the run was cut short";
+  // No temporary file of the consistent set is left.
+  for (const auto& e : fs::recursive_directory_iterator(dir / "checkpoints"))
+    EXPECT_EQ(e.path().string().find(".tmp."), std::string::npos) << e.path();
+
+  ASSERT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
+      << slurp(dir.string() + ".out");
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  check_region(dir, s, 0, "fine");
+  // The same run: per-face totals and the per-interval log to the last digit, the same fine balance.
+  EXPECT_EQ(slurp(dir / "coupling" / "faces_region0.csv"), slurp(ref / "coupling" / "faces_region0.csv"));
+  EXPECT_EQ(slurp(dir / "coupling" / "region0.csv"), slurp(ref / "coupling" / "region0.csv"));
+  EXPECT_EQ(read_json(dir / "levels" / "fine" / "summary.json")["mass_balance"],
+            read_json(ref / "levels" / "fine" / "summary.json")["mass_balance"]);
+  EXPECT_EQ(slurp(dir / "levels" / "fine" / "series.csv"), slurp(ref / "levels" / "fine" / "series.csv"));
+  EXPECT_EQ(read_json(dir / "levels" / "fine" / "summary.json")["levels"][0]["coupling"],
+            read_json(ref / "levels" / "fine" / "summary.json")["levels"][0]["coupling"]);
+  for (const auto& d : {ref, dir}) {
+    fs::remove_all(d);
+    fs::remove(d.string() + ".out");
+  }
+}
+
+TEST(MlcgRecovery, KilledFineLevelIsRestartedFromTheLastCheckpointAndTheRunCompletes) {
+  const fs::path cfile = case_with("[launcher]\nrestart_on_failure = 2", "restart");
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_kill_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 300, pid)) << slurp(dir.string() + ".out");
+  // `mlcg ps` shows the running hierarchy.
+  std::string ps;
+  for (int i = 0; i < 100 && ps.find("p-steps/s") == std::string::npos; ++i) {  // progress comes each wall second
+    ASSERT_EQ(run(kBin + "/mlcg ps " + dir.string() + " > " + dir.string() + ".ps 2>&1"), 0);
+    ps = slurp(dir.string() + ".ps");
+    usleep(100000);
+  }
+  EXPECT_NE(ps.find("level 'fine'"), std::string::npos) << ps;
+  EXPECT_NE(ps.find("coupler"), std::string::npos) << ps;
+  EXPECT_NE(ps.find("p-steps/s"), std::string::npos) << ps;
+  const pid_t fine = pid_of(dir, "level 'fine'");
+  ASSERT_GT(fine, 0);
+  ASSERT_EQ(kill(fine, SIGKILL), 0);
+  EXPECT_EQ(wait_exit(pid), 0) << slurp(dir.string() + ".out");
+  const std::string out = slurp(dir.string() + ".out");
+  EXPECT_NE(out.find("level 'fine' (pid " + std::to_string(fine) + ") was killed by signal 9"), std::string::npos) << out;
+  EXPECT_NE(out.find("restarting the hierarchy"), std::string::npos) << out;
+  expect_no_process_left(dir);
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  EXPECT_EQ(s["attempts"], 2);
+  check_region(dir, s, 0, "fine");
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", dir.string() + ".ps", cfile.string()}) fs::remove(f);
+}
+
+TEST(MlcgRecovery, KilledMpirunOfATwoRankFineLevelLeavesNoRankBehind) {
+  std::string text = slurp(kSrc + "/cases/quickstart/mlcg.toml");
+  const std::string fine = "name = \"fine\"\nalpha = 1.0\ndt_alpha1 = 1.2e-5\n";
+  ASSERT_NE(text.find(fine), std::string::npos);
+  text.replace(text.find(fine), fine.size(), fine + "ranks = 2\n");
+  const fs::path cfile = fs::temp_directory_path() / ("mlcg_mpikill_" + std::to_string(::getpid()) + ".toml");
+  std::ofstream(cfile) << text;
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_mpikill_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 200, pid)) << slurp(dir.string() + ".out");
+  const pid_t mpirun = pid_of(dir, "level 'fine'");
+  ASSERT_GT(mpirun, 0);
+  EXPECT_GE(processes_naming(dir).size(), 4u) << "coupler, coarse level, mpirun and its two ranks";
+  ASSERT_EQ(kill(mpirun, SIGKILL), 0);
+  EXPECT_EQ(wait_exit(pid), 128 + SIGKILL) << slurp(dir.string() + ".out");
+  expect_no_process_left(dir);  // the ranks Open MPI put in their own process groups included
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".out");
+  fs::remove(cfile);
+}
+
+TEST(MlcgRecovery, KilledFineLevelWithoutRestartStopsEveryProcessAndLeavesALoadableCheckpoint) {
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_kill0_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 300, pid)) << slurp(dir.string() + ".out");
+  const pid_t fine = pid_of(dir, "level 'fine'");
+  ASSERT_GT(fine, 0);
+  ASSERT_EQ(kill(fine, SIGKILL), 0);
+  EXPECT_EQ(wait_exit(pid), 128 + SIGKILL);
+  const std::string out = slurp(dir.string() + ".out");
+  EXPECT_NE(out.find("level 'fine' (pid " + std::to_string(fine) + ") was killed by signal 9"), std::string::npos) << out;
+  expect_no_process_left(dir);
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "failed");
+  EXPECT_NE(s["reason"].get<std::string>().find("level 'fine'"), std::string::npos);
+  // The last consistent checkpoint loads: the run resumes from it and completes with an exact balance.
+  ASSERT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
+      << slurp(dir.string() + ".out");
+  const auto r = read_json(dir / "summary.json");
+  EXPECT_EQ(r["status"], "completed");
+  check_region(dir, r, 0, "fine");
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".out");
+}
+
+// ---- Swapping a level's binary (issue 5) ----
+
+namespace {
+// Copies dem_level: a second binary of the same protocol.
+fs::path copy_of_dem_level(const std::string& tag) {
+  const fs::path copy = fs::temp_directory_path() / ("dem_level_" + tag + "_" + std::to_string(::getpid()));
+  fs::copy_file(kBin + "/dem_level", copy, fs::copy_options::overwrite_existing);
+  return copy;
+}
+}  // namespace
+
+TEST(MlcgSwap, AnotherProtocolIsRefusedAndTheOldBinaryContinuesThenACopySwapsIn) {
+  const fs::path copy = copy_of_dem_level("swap");
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_swap_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 200, pid)) << slurp(dir.string() + ".out");
+  const std::string swap = kBin + "/mlcg swap " + dir.string() + " --level fine --binary ";
+  EXPECT_EQ(run(swap + kBin + "/dem_level_protocol_test > " + dir.string() + ".swap1 2>&1"), 1);
+  const std::string refused = slurp(dir.string() + ".swap1");
+  EXPECT_NE(refused.find("refused"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("protocol version 99"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("continues with " + kBin + "/dem_level"), std::string::npos) << refused;
+  EXPECT_EQ(run(swap + copy.string() + " > " + dir.string() + ".swap2 2>&1"), 0) << slurp(dir.string() + ".swap2");
+  EXPECT_EQ(wait_exit(pid), 0) << slurp(dir.string() + ".out");
+  expect_no_process_left(dir);
+  const std::string log = slurp(dir / "coupler.log");
+  EXPECT_NE(log.find("level 'fine' registered: alpha 1, dt 1.2e-05 s, 1 rank(s), binary " + copy.string()),
+            std::string::npos) << log;
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  check_region(dir, s, 0, "fine");
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", dir.string() + ".swap1", dir.string() + ".swap2", copy.string()})
+    fs::remove(f);
+}
+
+TEST(MlcgSwap, CaseSwapEntryReplacesTheFineLevelAtItsTime) {
+  const fs::path copy = copy_of_dem_level("caseswap");
+  const fs::path cfile = case_with("[[swap]]\nlevel = \"fine\"\nat = 0.3\nbinary = \"" + copy.string() + "\"", "cswap");
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_cswap_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  ASSERT_EQ(run(kBin + "/mlcg run " + cfile.string() + " --out " + dir.string() + " --quiet > " + dir.string() +
+                ".out 2>&1"),
+            0) << slurp(dir.string() + ".out");
+  const std::string out = slurp(dir.string() + ".out");
+  EXPECT_NE(out.find("swapped: level 'fine' runs " + copy.string()), std::string::npos) << out;
+  EXPECT_NE(slurp(dir / "coupler.log").find("binary " + copy.string()), std::string::npos);
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  check_region(dir, s, 0, "fine");
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", cfile.string(), copy.string()}) fs::remove(f);
 }

@@ -154,7 +154,7 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
     t->fail_table("a [coupling] section needs more than one [[levels]] entry, found " +
                   std::to_string(spec.levels.size()) +
                   "; remove [coupling] for a single-level case, or add the finer [[levels]] it couples");
-  t->allow({"interval", "endpoint", "heartbeat", "timeout", "regions"});
+  t->allow({"interval", "endpoint", "heartbeat", "timeout", "checkpoint_every", "regions"});
   CouplingSpec c;
   c.interval = t->number("interval", c.interval);
   t->non_negative("interval", c.interval, "s (0 = automatic)");
@@ -171,6 +171,9 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
   t->check("timeout", c.timeout > c.heartbeat,
            num(c.timeout) + " is not longer than heartbeat = " + num(c.heartbeat) +
                "; give a timeout in s of wall time above the heartbeat");
+
+  c.checkpoint_every = t->number("checkpoint_every", c.checkpoint_every);
+  t->non_negative("checkpoint_every", c.checkpoint_every, "s of simulated time (0 = automatic)");
 
   const auto tables = array_of_tables(*t, "regions");
   if (tables.empty())
@@ -209,6 +212,34 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
   }
   c.loc = t->loc();
   spec.coupling = std::move(c);
+}
+
+void read_launcher(const Table& root, CaseSpec& spec) {
+  for (const Table& w : array_of_tables(root, "swap")) {
+    if (spec.levels.size() < 2)
+      w.fail_table("[[swap]] replaces a level of a multi-level run; a single-level case has none: remove it");
+    w.allow({"level", "at", "binary"});
+    SwapSpec s;
+    s.loc = w.loc();
+    s.level = w.required_string("level", "the name of a [[levels]] entry");
+    const bool known = std::any_of(spec.levels.begin(), spec.levels.end(), [&](const LevelSpec& l) { return l.name == s.level; });
+    w.check("level", known, "'" + s.level + "' is not a [[levels]] entry of this case");
+    s.at = w.required_number("at", "the simulated time [s] of the swap");
+    w.non_negative("at", s.at, "s of simulated time");
+    s.binary = w.required_string("binary", "the path of the new solver binary");
+    if (!s.binary.empty() && s.binary.front() != '/' && !spec.dir.empty()) s.binary = spec.dir + "/" + s.binary;
+    spec.swaps.push_back(std::move(s));
+  }
+  const auto t = root.table("launcher");
+  if (!t) return;
+  if (spec.levels.size() < 2)
+    t->fail_table("[launcher] supervises a multi-level run; a single-level case has nothing to restart: remove it");
+  t->allow({"restart_on_failure"});
+  if (const auto n = t->integer("restart_on_failure")) {
+    t->check("restart_on_failure", *n >= 0 && *n <= 100,
+             std::to_string(*n) + " is outside [0, 100]; give how many times a failed hierarchy is restarted");
+    spec.launcher.restart_on_failure = static_cast<int>(*n);
+  }
 }
 
 }  // namespace mlcg::config::detail

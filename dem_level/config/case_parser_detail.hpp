@@ -128,6 +128,7 @@ void read_grids(const Table& root, CaseSpec& spec, Names& names);
 // levels and the domain are read; resolves an automatic coupling interval.
 // More than one [[levels]] entry without [coupling] is refused by the levels reader.
 void read_coupling(const Table& root, CaseSpec& spec, const Names& names);
+void read_launcher(const Table& root, CaseSpec& spec);
 
 // min and max of a box at t's keys "min" and "max": both required, min < max in
 // every axis; `what` names the box in messages ("the grid box").

@@ -221,7 +221,22 @@ struct CouplingSpec {              // [coupling]
   std::string endpoint;            // endpoint: ZeroMQ endpoint of the coupler; "" = ipc:// in the run folder
   double heartbeat = 1.0;          // heartbeat [wall s] > 0
   double timeout = 60.0;           // timeout [wall s] > heartbeat: a level silent this long stops the run
+  double checkpoint_every = 0.0;   // checkpoint_every [s] >= 0: simulated time between consistent checkpoints
+                                   //   of the hierarchy; 0 = automatic (0.02 s)
   std::vector<CouplingRegionSpec> regions;
+  SourceLoc loc;
+};
+
+struct SwapSpec {                  // [[swap]]: replace a level's binary during a multi-level run
+  std::string level;               // level = "name": a [[levels]] entry
+  double at = 0.0;                 // at [s] >= 0: simulated time; the swap happens at the next consistent checkpoint
+  std::string binary;              // binary: path of the new solver (relative to the case's folder)
+  SourceLoc loc;
+};
+
+struct LauncherSpec {              // [launcher]: how `mlcg run` supervises a hierarchy
+  int restart_on_failure = 0;      // restart_on_failure >= 0: restarts from the last consistent checkpoint
+                                   //   after a process of the hierarchy died; 0 = stop every process
   SourceLoc loc;
 };
 
@@ -247,6 +262,8 @@ struct CaseSpec {
   StabilitySpec stability;
   TimeSpec time;
   std::optional<CouplingSpec> coupling;  // [coupling]: only in multi-level cases
+  LauncherSpec launcher;                 // [launcher]: only in multi-level cases
+  std::vector<SwapSpec> swaps;           // [[swap]]: only in multi-level cases
 };
 
 }  // namespace mlcg::config

@@ -1,6 +1,8 @@
 #include "coupling/client.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <optional>
 
 #include <zmq.hpp>
 
@@ -49,7 +51,13 @@ std::string Client::wait_for(int want, const std::string& what, bool heartbeats,
     if (heartbeats) until = std::min(until, last_sent_ + span(opt_.heartbeat));
     const auto wait = std::max<int64_t>(
         0, std::chrono::duration_cast<std::chrono::milliseconds>(until - now).count() + 1);
-    auto in = ch_->receive(std::chrono::milliseconds(wait));
+    std::optional<bus::Incoming> in;
+    try {
+      in = ch_->receive(std::chrono::milliseconds(wait));
+    } catch (const zmq::error_t& e) {
+      if (e.num() != EINTR) throw;
+      throw CouplingError("interrupted by a signal while level '" + opt_.level_name + "' waited for " + what);
+    }
     if (!in) {
       if (heartbeats && Clock::now() >= last_sent_ + span(opt_.heartbeat)) {
         bus::Envelope hb;
@@ -61,6 +69,11 @@ std::string Client::wait_for(int want, const std::string& what, bool heartbeats,
     }
     deadline = Clock::now() + span(opt_.timeout);  // the coupler is alive
     if (!in->ok()) {
+      // The only answer to a registration is Welcome or Refused: one this level cannot read comes
+      // from a coupler of another protocol version; waiting for the timeout would not help.
+      if (want == bus::Envelope::kWelcome)
+        throw CouplingError("the coupler at " + opt_.endpoint + " answered the registration of level '" +
+                            opt_.level_name + "' with a message this build cannot read: " + in->error);
       if (opt_.warn) opt_.warn("ignored a message from the coupler at " + opt_.endpoint + ": " + in->error);
       continue;
     }

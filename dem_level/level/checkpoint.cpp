@@ -53,6 +53,7 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
                        reinterpret_cast<const char*>(open_mass.data() + open_mass.size()));
   const auto all = comm_.gather0(buf);
   const auto all_open = comm_.gather0(om);
+  const CouplingReport coupling = coupling_report();  // collective; zeros when uncoupled
   if (comm_.rank() != 0) return;
 
   io::H5Writer w(path);
@@ -77,6 +78,8 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   w.set_attr("/", "next_checkpoint", next_checkpoint_);
   w.set_attr("/", "snapshots", snapshots_);
   w.set_attr("/", "wall_seconds", wall_seconds_before_);
+  w.set_attr("/", "coupling_inserted", coupling.inserted);
+  w.set_attr("/", "coupling_worst_insert_overlap", coupling.worst_insert_overlap);
   std::ostringstream rng;
   rng << rng_;
   w.set_attr("/", "rng", rng.str());
@@ -206,6 +209,10 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   next_checkpoint_ = r.attr_double("/", "next_checkpoint");
   snapshots_ = r.attr_int64("/", "snapshots");
   wall_seconds_before_ = r.attr_double("/", "wall_seconds");
+  if (r.has_attr("/", "coupling_inserted")) {  // written by this build on
+    coupling_restored_.inserted = r.attr_uint64("/", "coupling_inserted");
+    coupling_restored_.worst_insert_overlap = r.attr_double("/", "coupling_worst_insert_overlap");
+  }
   std::istringstream rng(r.attr_string("/", "rng"));
   rng >> rng_;
 

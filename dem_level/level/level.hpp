@@ -186,6 +186,7 @@ class Level {
   bool coupling_removes(size_t i);      // rebuild: particle i left a fine region (counted)
   void coupling_refresh();              // rebuild: crossing candidates
   bool coupling_finished() const;       // the coupler said stop and the last interval is done
+  const std::string& coupling_stop_reason() const;  // non-empty: the coupler cut the run short
   void coupling_bye(RunStatus status, const std::string& reason);
 
   config::CaseSpec cs_;
@@ -228,6 +229,7 @@ class Level {
   int64_t removed_ = 0;
   int64_t explicit_count_ = 0;      // the case's [[particles]] and [initial] particles
   double explicit_mass_ = 0.0;
+  CouplingReport coupling_restored_;  // a coupled level's counters from its checkpoint (inserted, worst overlap)
   double removed_mass_ = 0.0;
   uint64_t particle_steps_ = 0;
   size_t max_particles_ = 0;

@@ -37,6 +37,8 @@ struct Level::Coupled {
   uint64_t k = 0;             // the interval being run
   uint64_t done = 0;          // its steps done
   bool stop = false, checkpoint = false, finished = false;
+  std::string checkpoint_path;  // the coupler's (a consistent set of the hierarchy); empty = our own
+  std::string stop_reason;      // the coupler cut the run short (interrupted, swapped)
   double wall0 = 0.0;
   int material = 0;           // of inserted particles
   double density = 0.0;
@@ -118,6 +120,8 @@ void Level::connect_coupler() {
                                          w.start_interval(), start));
   c->sample_every = std::max<uint64_t>(1, c->steps / kSamplesPerInterval);
   c->k = start;
+  c->inserted = coupling_restored_.inserted;  // the run before the checkpoint's, so the report covers the whole run
+  c->worst_overlap = coupling_restored_.worst_insert_overlap;
   for (int g = 0; g < w.grids_size(); ++g) {
     const auto& grid = w.grids(g);
     const bool coarse = grid.coarse_level() == w.level_index(), fine = grid.fine_level() == w.level_index();
@@ -155,6 +159,8 @@ void Level::coupling_begin_step() {
   }
   c.stop = cmd.stop();
   c.checkpoint = cmd.checkpoint();
+  c.checkpoint_path = cmd.checkpoint_path();
+  c.stop_reason = cmd.stop_reason();
   std::vector<const bus::GridCommands*> of(c.grids.size(), nullptr);
   for (const auto& g : cmd.grids()) {
     const auto it = std::find_if(c.grids.begin(), c.grids.end(), [&](const auto& l) { return l.index() == g.grid(); });
@@ -244,6 +250,8 @@ void Level::coupling_refresh() {
 
 bool Level::coupling_finished() const { return coupled_->finished; }
 
+const std::string& Level::coupling_stop_reason() const { return coupled_->stop_reason; }
+
 Level::CouplingReport Level::coupling_report() const {
   CouplingReport r;
   if (!coupled_) return r;
@@ -266,6 +274,14 @@ void Level::coupling_end_step() {
     return;
   }
   bus::IntervalStats s;
+  // The checkpoint first: the statistics tell the coupler it is on disk (its consistent set).
+  if (c.checkpoint && !opt_.out_dir.empty()) {
+    PhaseTimer t(times_.output);
+    const auto path = c.checkpoint_path.empty() ? opt_.out_dir / "checkpoint.h5" : std::filesystem::path(c.checkpoint_path);
+    write_checkpoint(path);
+    s.set_checkpoint(path.string());
+    rebuild_pending_ = true;  // as a restarted run will
+  }
   {
     PhaseTimer t(times_.coupling);
     s.set_interval(c.k);
@@ -274,11 +290,6 @@ void Level::coupling_end_step() {
     s.set_particles(static_cast<uint64_t>(comm_.sum(static_cast<int64_t>(p_.n_local()))));
     s.set_wall_seconds(wall_seconds() - c.wall0);
     c.client->send_stats(s);
-  }
-  if (c.checkpoint && !opt_.out_dir.empty()) {
-    PhaseTimer t(times_.output);
-    write_checkpoint(opt_.out_dir / "checkpoint.h5");
-    rebuild_pending_ = true;  // as a restarted run will
   }
   ++c.k;
   c.done = 0;
@@ -292,7 +303,8 @@ void Level::coupling_bye(RunStatus status, const std::string& reason) {
     why = c.finished ? fmt::format("finished after interval {}", c.k - 1)
                      : fmt::format("{} at t = {:.6g} s (interval {}, step {} of {})", to_string(status), time(), c.k,
                                    c.done, c.steps);
-  const bool failed = status == RunStatus::Failed || status == RunStatus::Interrupted;
+  // Stopping where the coupler said (c.finished) is no failure, even when the run was cut short.
+  const bool failed = status == RunStatus::Failed || (status == RunStatus::Interrupted && !c.finished);
   c.client->bye(why, failed);
   log_->info("coupling: said bye to the coupler ({})", why);
 }

@@ -54,7 +54,13 @@ RunStatus Level::run() {
         status = RunStatus::StepLimit;
         break;
       }
-      if (coupled_ && coupling_finished()) break;
+      if (coupled_ && coupling_finished()) {
+        if (!coupling_stop_reason().empty()) {
+          status = RunStatus::Interrupted;
+          reason = coupling_stop_reason();
+        }
+        break;
+      }
       step_once();
       progress(false);
     }

@@ -21,7 +21,11 @@
 namespace mlcg::bus {
 
 // Bump on any change of mlcg/bus.proto an older peer would misread.
+#ifdef MLCG_PROTOCOL_VERSION_OVERRIDE  // a test build speaking another version (dem_level_protocol_test)
+inline constexpr uint32_t kProtocolVersion = MLCG_PROTOCOL_VERSION_OVERRIDE;
+#else
 inline constexpr uint32_t kProtocolVersion = 2;
+#endif
 // Messages above this are refused (an insertion list of a few 100k particles fits).
 inline constexpr size_t kDefaultMaxBytes = size_t{64} << 20;
 

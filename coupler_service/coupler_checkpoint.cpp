@@ -1,0 +1,98 @@
+// The coupler's part of a consistent hierarchy checkpoint: every value the
+// next intervals' commands depend on. The planner's random draws are seeded by
+// (seed, face, interval), so faces + controllers + interval index are the whole state.
+#include <stdexcept>
+#include <string>
+
+#include "coupler.hpp"
+
+namespace mlcg::coupling {
+namespace {
+
+void put(google::protobuf::RepeatedField<double>* out, const Vec3& v) {
+  out->Add(v.x);
+  out->Add(v.y);
+  out->Add(v.z);
+}
+
+Vec3 get(const google::protobuf::RepeatedField<double>& a, const std::string& what) {
+  if (a.size() != 3) throw std::invalid_argument("coupler checkpoint: " + what + " needs 3 values");
+  return {a[0], a[1], a[2]};
+}
+
+}  // namespace
+
+void Coupler::save(bus::CouplerCheckpoint& out) const {
+  out.set_seed(cfg_.seed);
+  out.clear_regions();
+  for (const auto& r : regions_) {
+    bus::RegionCheckpoint& rc = *out.add_regions();
+    for (const auto& f : r->planner.faces()) {
+      bus::FaceCheckpoint& fc = *rc.add_faces();
+      fc.set_crossed(f.crossed);
+      fc.set_inserted(f.inserted);
+      fc.set_remainder(f.remainder);
+      fc.set_placed(f.placed);
+      put(fc.mutable_velocity(), f.velocity);
+      put(fc.mutable_anchor(), f.anchor);
+      fc.set_seen(f.seen);
+      for (const int64_t h : f.histogram) fc.add_histogram(h);
+      fc.set_next_radius(f.next_radius);
+      fc.set_short_intervals(f.short_intervals);
+      fc.set_short_streak(f.short_streak);
+      fc.set_last_crossed(f.last_crossed);
+    }
+    for (const auto& pi : r->pi) {
+      rc.add_pi_integral(pi.integral);
+      rc.add_pi_output(pi.output);
+    }
+    for (const auto& p : r->last)
+      for (double v : {p.x.x, p.x.y, p.x.z, p.r, p.v.x, p.v.y, p.v.z}) rc.add_last_insert(v);
+  }
+}
+
+void Coupler::restore(const bus::CouplerCheckpoint& in) {
+  if (in.seed() != cfg_.seed)
+    throw std::invalid_argument("coupler checkpoint: written with seed " + std::to_string(in.seed()) +
+                                ", the case has seed " + std::to_string(cfg_.seed));
+  if (static_cast<size_t>(in.regions_size()) != regions_.size())
+    throw std::invalid_argument("coupler checkpoint: has " + std::to_string(in.regions_size()) +
+                                " regions, the case has " + std::to_string(regions_.size()));
+  for (size_t ri = 0; ri < regions_.size(); ++ri) {
+    Region& r = *regions_[ri];
+    const bus::RegionCheckpoint& rc = in.regions(static_cast<int>(ri));
+    const std::string where = "coupler checkpoint: region " + std::to_string(ri);
+    auto& faces = r.planner.faces_mut();
+    if (static_cast<size_t>(rc.faces_size()) != faces.size() || rc.pi_integral_size() != rc.faces_size() ||
+        rc.pi_output_size() != rc.faces_size() || rc.last_insert_size() % 7 != 0)
+      throw std::invalid_argument(where + " has " + std::to_string(rc.faces_size()) + " faces, the case's grid has " +
+                                  std::to_string(faces.size()));
+    for (size_t f = 0; f < faces.size(); ++f) {
+      const bus::FaceCheckpoint& fc = rc.faces(static_cast<int>(f));
+      FaceState& s = faces[f];
+      if (static_cast<size_t>(fc.histogram_size()) != s.histogram.size())
+        throw std::invalid_argument(where + ": face " + std::to_string(f) + " has another number of radius bins");
+      s.crossed = fc.crossed();
+      s.inserted = fc.inserted();
+      s.remainder = fc.remainder();
+      s.placed = fc.placed();
+      s.velocity = get(fc.velocity(), "velocity");
+      s.anchor = get(fc.anchor(), "anchor");
+      s.seen = fc.seen();
+      s.histogram.assign(fc.histogram().begin(), fc.histogram().end());
+      s.next_radius = fc.next_radius();
+      s.short_intervals = fc.short_intervals();
+      s.short_streak = fc.short_streak();
+      s.last_crossed = fc.last_crossed();
+      r.pi[f].integral = rc.pi_integral(static_cast<int>(f));
+      r.pi[f].output = rc.pi_output(static_cast<int>(f));
+    }
+    r.last.clear();
+    for (int i = 0; i + 6 < rc.last_insert_size(); i += 7) {
+      const auto& a = rc.last_insert();
+      r.last.push_back({{a[i], a[i + 1], a[i + 2]}, a[i + 3], {a[i + 4], a[i + 5], a[i + 6]}});
+    }
+  }
+}
+
+}  // namespace mlcg::coupling
