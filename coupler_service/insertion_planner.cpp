@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <random>
 #include <stdexcept>
 
@@ -19,10 +18,11 @@ uint64_t mix(uint64_t x) {  // splitmix64 finaliser
 }  // namespace
 
 InsertionPlanner::InsertionPlanner(const bus::CouplingGeometry& geo, PlannerParams prm, FitsGeometry fits)
-    : geo_(geo), prm_(std::move(prm)), fits_(std::move(fits)), faces_(geo.faces()) {
+    : geo_(geo), prm_(std::move(prm)), fits_(std::move(fits)), faces_(geo.faces()), hash_(1.0) {
   if (prm_.radius_bins.size() < 2) throw std::invalid_argument("insertion planner: need at least one radius bin");
   if (!(prm_.ratio > 1.0)) throw std::invalid_argument("insertion planner: coarse-grain ratio must exceed 1");
   for (auto& f : faces_) f.histogram.assign(prm_.radius_bins.size() - 1, 0);
+  hash_ = SphereHash(2.0 * prm_.radius_bins.back() / prm_.ratio);  // cells of the largest fine diameter
 }
 
 double InsertionPlanner::mass_of(double r) const { return sphere_mass(prm_.density, r); }
@@ -92,8 +92,7 @@ bool InsertionPlanner::wants_occupants(uint64_t interval) const {
 
 std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<Sphere>& occupants) {
   std::vector<Insert> out;
-  const double r_max = prm_.radius_bins.back() / prm_.ratio;
-  std::optional<SphereHash> hash;  // built on the first candidate: most intervals place nothing
+  bool filled = false;  // the hash is filled on the first candidate: most intervals place nothing
   const double h = geo_.cell_size(), top = geo_.top();
   for (size_t f = 0; f < faces_.size(); ++f) {
     FaceState& s = faces_[f];
@@ -107,16 +106,17 @@ std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<
       const double zlo = top - prm_.insert_depth + r, zhi = top - r;
       if (zhi < zlo) throw std::runtime_error("insertion planner: insert_depth is smaller than a fine diameter");
       std::uniform_real_distribution<double> ux(lo.x, lo.x + h), uy(lo.y, lo.y + h), uz(zlo, zhi);
-      if (!hash) {
-        hash.emplace(2.0 * r_max);
-        for (const auto& o : occupants) hash->add(o);
+      if (!filled) {
+        hash_.clear();
+        for (const auto& o : occupants) hash_.add(o);
+        filled = true;
       }
       bool placed = false;
       const int attempts = s.short_streak > 0 ? prm_.attempts_when_full : prm_.attempts;
       for (int a = 0; a < attempts && !placed; ++a) {
         const Vec3 x{ux(rng), uy(rng), uz(rng)};
-        if (hash->overlaps(x, r) || !fits_(s.anchor, x, r)) continue;
-        hash->add(x, r);
+        if (hash_.overlaps(x, r) || !fits_(s.anchor, x, r)) continue;
+        hash_.add(x, r);
         out.push_back({x, r, s.velocity});
         s.inserted += m;
         s.remainder = s.crossed - s.inserted;

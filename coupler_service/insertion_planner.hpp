@@ -84,6 +84,7 @@ class InsertionPlanner {
   PlannerParams prm_;
   FitsGeometry fits_;
   std::vector<FaceState> faces_;
+  SphereHash hash_;  // the slab's occupants and this plan's particles; reused from plan to plan
 };
 
 }  // namespace mlcg::coupling

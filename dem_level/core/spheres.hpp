@@ -38,6 +38,13 @@ class SphereHash {
   }
   void add(const Sphere& s) { add(s.x, s.r); }
   size_t size() const { return spheres_.size(); }
+  // Forgets every sphere but keeps the cells' storage, so refilling a hash over the
+  // same region (the coupler plans an insertion every interval) allocates nothing.
+  void clear() {
+    for (auto& [k, bucket] : map_) bucket.clear();
+    spheres_.clear();
+    r_max_ = 0.0;
+  }
 
   // Calls f(index, x_k, r_k) for the stored spheres that may overlap the sphere
   // (x, r), i.e. those in the cells within r + the largest stored radius, until
