@@ -39,14 +39,10 @@ size_t finest_level(const config::CaseSpec& cs) {
   return finest;
 }
 
+// A summary the process may not have written (it failed): an empty object reads as "missing".
 nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  if (!in) return nlohmann::json::object();
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const std::exception&) {
-    return nlohmann::json::object();
-  }
+  auto j = read_json_or_null(p);
+  return j.is_object() ? j : nlohmann::json::object();
 }
 
 // One summary over the hierarchy: every level's entry, the finest level's

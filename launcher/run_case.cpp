@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "config/case_parser.hpp"
+#include "checkpoints.hpp"
 #include "hierarchy.hpp"
 #include "hosts.hpp"
 #include "io/atomic_file.hpp"
@@ -70,10 +71,8 @@ double children_cpu_seconds() {
 // Adds the measured CPU time of the run's processes to its summary.json: the cost of a run
 // whose levels wait for each other is the CPU they used, not wall time x cores.
 void record_cpu_seconds(const fs::path& run_dir, double cpu) {
-  std::ifstream in(run_dir / "summary.json");
-  if (!in) return;
-  auto j = nlohmann::json::parse(in, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) return;
+  auto j = read_json_or_null(run_dir / "summary.json");
+  if (!j.is_object()) return;
   j["cpu_seconds"] = cpu;
   io::write_file_atomic(run_dir / "summary.json", j.dump(2) + "\n");
 }
