@@ -92,8 +92,9 @@ void Coupler::check(const bus::GridStats& g, const Region& r, bool coarse, size_
     bad("face_momentum", g.face_momentum_size(), 3 * nf);
     bad("face_moment", g.face_moment_size(), 3 * nf);
     bad("face_histogram", g.face_histogram_size(), nb * nf);
-  } else if (g.occupants_size() % 4 != 0) {
-    bad("occupants", g.occupants_size(), g.occupants_size() / 4 * 4);
+  } else {
+    if (g.occupants_size() % 4 != 0) bad("occupants", g.occupants_size(), g.occupants_size() / 4 * 4);
+    if (g.face_returned_mass_size() != 0) bad("face_returned_mass", g.face_returned_mass_size(), nf);
   }
 }
 
@@ -118,6 +119,11 @@ std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vecto
     // Coarse -> fine: insertion list.
     r.planner.add_crossings(to_vector(cs.face_mass()), to_vector(cs.face_momentum()), to_vector(cs.face_moment()),
                             {cs.face_histogram().begin(), cs.face_histogram().end()});
+    r.planner.add_returned(to_vector(fs.face_returned_mass()));
+    r.log.returned_mass = 0.0;
+    for (double m : fs.face_returned_mass()) r.log.returned_mass += m;
+    r.log.coarse_mass = cs.mass_in_region();
+    r.log.fine_mass = fs.mass_in_region();
     // Placing needs the fine particles in the slabs; without them the mass waits an interval.
     std::vector<Insert> ins;
     if (fs.occupants_sent()) {

@@ -50,6 +50,8 @@ struct RegionLog {
   std::vector<Vec3> acceleration;                    // per active cell (zero where not corrected)
   size_t inserted = 0;                               // particles in this interval's list
   double inserted_mass = 0.0;
+  double returned_mass = 0.0;                        // fine mass that left the region this interval
+  double coarse_mass = 0.0, fine_mass = 0.0;         // each level's mass in the region's active cells
 };
 
 class Coupler {

@@ -41,6 +41,7 @@ void Coupler::save(bus::CouplerCheckpoint& out) const {
       fc.set_short_intervals(f.short_intervals);
       fc.set_short_streak(f.short_streak);
       fc.set_last_crossed(f.last_crossed);
+      fc.set_returned(f.returned);
     }
     for (const auto& pi : r->pi) {
       rc.add_pi_integral(pi.integral);
@@ -84,6 +85,7 @@ void Coupler::restore(const bus::CouplerCheckpoint& in) {
       s.short_intervals = fc.short_intervals();
       s.short_streak = fc.short_streak();
       s.last_crossed = fc.last_crossed();
+      s.returned = fc.returned();
       r.pi[f].integral = rc.pi_integral(static_cast<int>(f));
       r.pi[f].output = rc.pi_output(static_cast<int>(f));
     }

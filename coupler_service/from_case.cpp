@@ -34,6 +34,28 @@ std::vector<uint32_t> clipped_cells(const WallSet& walls, const Vec3& origin, do
   return cells;
 }
 
+// Fractions of each active cell's volume and of each boundary face's area that
+// are reachable from `inside` (inside the walls), from n^3 / n^2 sample points.
+void inside_fractions(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& inside) {
+  constexpr int n = 8;
+  const bus::CouplingGeometry geo(gr);
+  const double h = geo.cell_size(), floor = 1.0 / (n * n * n);
+  for (size_t c = 0; c < geo.cells(); ++c) {
+    const Vec3 lo = geo.cell_lo(c);
+    int in = 0;
+    for (int q = 0; q < n * n * n; ++q)
+      in += !walls.crosses(inside, lo + h * Vec3{(q % n + 0.5) / n, ((q / n) % n + 0.5) / n, (q / (n * n) + 0.5) / n});
+    gr.add_cell_inside(std::max(floor, static_cast<double>(in) / (n * n * n)));
+  }
+  for (size_t f = 0; f < geo.faces(); ++f) {
+    const Vec3 lo = geo.cell_lo(geo.cell_of_face(f));
+    int in = 0;
+    for (int q = 0; q < n * n; ++q)
+      in += !walls.crosses(inside, Vec3{lo.x + h * (q % n + 0.5) / n, lo.y + h * (q / n + 0.5) / n, geo.top() - 1e-6 * h});
+    gr.add_face_inside(std::max(floor, static_cast<double>(in) / (n * n)));
+  }
+}
+
 }  // namespace
 
 CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
@@ -106,6 +128,8 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
       throw std::invalid_argument(rs.loc.str() + ": no cell of the region's top layer lies inside the geometry "
                                   "(check min/max, or give `inside` = a point inside the walls)");
     for (uint32_t c : cells) gr.add_cells(c);
+    inside_fractions(*walls, gr, inside);
+    for (double v : {inside.x, inside.y, inside.z}) gr.add_inside_point(v);
     const double d_coarse = 2.0 * r_max * ac, d_fine = 2.0 * r_max * af;
     gr.set_insert_depth(rs.insert_depth > 0.0 ? rs.insert_depth : std::min(2.0 * d_coarse, h));
     gr.set_fade_depth(rs.fade * d_fine);

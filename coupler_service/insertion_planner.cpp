@@ -37,7 +37,7 @@ void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std:
     FaceState& s = faces_[f];
     s.crossed += mass[f];
     s.last_crossed = mass[f];
-    s.remainder = s.crossed - s.inserted;
+    s.remainder = s.crossed + s.returned - s.inserted;
     for (size_t b = 0; b < nb; ++b) s.histogram[b] += histogram[f * nb + b];
     if (mass[f] > 0.0) {
       // Favre averages of the net crossing; a net crossing is mostly one-way.
@@ -51,12 +51,26 @@ void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std:
   }
 }
 
+void InsertionPlanner::add_returned(const std::vector<double>& mass) {
+  if (mass.empty()) return;
+  if (mass.size() != faces_.size())
+    throw std::invalid_argument("insertion planner: face_returned_mass has " + std::to_string(mass.size()) +
+                                " values for " + std::to_string(faces_.size()) + " faces");
+  for (size_t f = 0; f < faces_.size(); ++f) {
+    if (!(mass[f] >= 0.0)) throw std::invalid_argument("insertion planner: negative returned mass");
+    FaceState& s = faces_[f];
+    s.returned += mass[f];
+    s.last_crossed += mass[f];
+    s.remainder = s.crossed + s.returned - s.inserted;
+  }
+}
+
 void InsertionPlanner::unplace(const Insert& p) {
   const int f = geo_.face_column(p.x);
   if (f < 0) return;
   FaceState& s = faces_[static_cast<size_t>(f)];
   s.inserted -= mass_of(p.r);
-  s.remainder = s.crossed - s.inserted;
+  s.remainder = s.crossed + s.returned - s.inserted;
   --s.placed;
 }
 
@@ -119,7 +133,7 @@ std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<
         hash_.add(x, r);
         out.push_back({x, r, s.velocity});
         s.inserted += m;
-        s.remainder = s.crossed - s.inserted;
+        s.remainder = s.crossed + s.returned - s.inserted;
         ++s.placed;
         s.next_radius = 0.0;
         s.short_streak = 0;

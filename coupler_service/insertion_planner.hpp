@@ -9,8 +9,13 @@
 // by simple sequential inhibition (SSI) in the slab just below the face, free
 // of overlap with the fine particles already there, with each other, and with
 // the walls; velocity = the face's Favre (mass-weighted) velocity. A face
-// whose slab has no room keeps its remainder for the next interval, so
-//   coarse mass crossed = fine mass inserted + remainder   (exactly, per face).
+// whose slab has no room keeps its remainder for the next interval. Fine mass
+// that leaves the region through a face (a particle bouncing up out of the
+// transition layer, a bed spreading out through an open side) is returned to
+// that face and inserted again: the coarse level stays the authority on what
+// lies outside the region, so the fine region holds what the coarse level
+// handed in. Per face:
+//   coarse mass crossed + fine mass returned = fine mass inserted + remainder.
 // Every random draw comes from a generator seeded by (seed, face, interval):
 // the plan depends on the inputs and the seed only.
 #include <cstdint>
@@ -38,7 +43,8 @@ struct PlannerParams {
 struct FaceState {
   double crossed = 0.0;      // total net coarse mass crossed [kg]
   double inserted = 0.0;     // total fine mass inserted [kg]
-  double remainder = 0.0;    // crossed - inserted, recomputed so the identity holds to one rounding
+  double returned = 0.0;     // total fine mass that left the region through this face [kg]
+  double remainder = 0.0;    // crossed + returned - inserted, recomputed so the identity holds to one rounding
   uint64_t placed = 0;
   Vec3 velocity;             // Favre velocity of the latest interval with a crossing
   Vec3 anchor;               // mass-weighted crossing point: known to lie inside the geometry
@@ -63,6 +69,9 @@ class InsertionPlanner {
   // face_mass, face_momentum, face_moment, face_histogram).
   void add_crossings(const std::vector<double>& mass, const std::vector<double>& momentum,
                      const std::vector<double>& moment, const std::vector<int64_t>& histogram);
+  // Adds one interval of the fine level's mass that left the region, per face (GridStats
+  // face_returned_mass); empty = none.
+  void add_returned(const std::vector<double>& mass);
   // Places what the remainders cover, given the fine particles in the slabs.
   std::vector<Insert> plan(uint64_t interval, const std::vector<Sphere>& occupants);
   // Whether the fine level should report its slabs' particles at the end of `interval`: some face

@@ -296,9 +296,21 @@ TEST(GridLink, InsertionListRemovalAndOccupantsAreCounted) {
   EXPECT_TRUE(fine.leaves({0.005, 0.021, 0.01}));
   EXPECT_FALSE(fine.leaves({0.005, 0.005, -0.01}));   // below the box: still falling through the fine level
   EXPECT_FALSE(fine.leaves({0.005, 0.005, 0.0199}));
-  fine.count_removed(0.25);
-  fine.count_removed(0.5);
+  // Left upward through the face above (0.005, 0.005) and sideways beside it: both go back to the
+  // face they left by (the grid's faces are the top faces of its 2 x 2 columns).
+  const int f0 = fine.geometry().face_column({0.005, 0.005, 0.0});
+  ASSERT_GE(f0, 0);
+  fine.count_removed({0.005, 0.005, 0.0201}, 0.25);
+  fine.count_removed({-0.001, 0.005, 0.019}, 0.5);
   const bus::GridStats g = fine.finish(p, Comm{}, 1.5e-3);
+  ASSERT_EQ(static_cast<size_t>(g.face_returned_mass_size()), fine.geometry().faces());
+  for (int f = 0; f < g.face_returned_mass_size(); ++f)
+    EXPECT_DOUBLE_EQ(g.face_returned_mass(f), f == f0 ? 0.75 : 0.0) << "face " << f;
+  double in_region = 0.0;  // summed here over the box [0, 0.02)^3, independently of the grid's cell lookup
+  for (size_t i = 0; i < p.n_local(); ++i)
+    if (p.x[i].z >= 0.0 && p.x[i].z < 0.02 && p.x[i].x >= 0.0 && p.x[i].x < 0.02 && p.x[i].y >= 0.0 && p.x[i].y < 0.02)
+      in_region += p.mass[i];
+  EXPECT_DOUBLE_EQ(g.mass_in_region(), in_region);
   EXPECT_EQ(g.grid(), 0u);
   EXPECT_EQ(g.inserted(), 2u);
   EXPECT_DOUBLE_EQ(g.inserted_mass(), m_in);

@@ -139,9 +139,13 @@ TEST(Curve, ClientWithoutKeysCannotRegisterAndIsLogged) {
   dealer.socket().set(zmq::sockopt::linger, 0);  // its message never leaves; do not wait for it
   dealer.send(hello("fine"));
   EXPECT_FALSE(srv.ch.receive(milliseconds(1500))) << "a client without keys got a message through";
-  const std::string log = srv.refused.once_it_has("does not use CURVE");
+  // ZeroMQ names the failure by how far the handshake got: a plain client's greeting is a protocol
+  // error, but on a loaded machine the client may hang up first (a broken pipe). Both are refusals.
+  const std::string log = srv.refused.once_it_has("refused a connection");
   EXPECT_NE(log.find("from 127.0.0.1:"), std::string::npos) << log;
-  EXPECT_NE(log.find("does not use CURVE"), std::string::npos) << log;
+  EXPECT_TRUE(log.find("does not use CURVE") != std::string::npos ||
+              log.find("broke off before CURVE was agreed") != std::string::npos)
+      << log;
 }
 
 TEST(Curve, ClientWithAnotherServerKeyIsRefused) {

@@ -4,7 +4,9 @@
 // mass-weighted mean velocity and the largest particle speed (GridStats cell_*
 // fields, in the order of CouplingGrid.cells). The statistics are those of the
 // case's cell grids: a CellGrid over the coupling box does the per-particle
-// work, and only the active cells' sums travel between ranks.
+// work, and only the active cells' sums travel between ranks. Stress and
+// volume fraction are over the part of each cell inside the walls
+// (CouplingGrid.cell_inside), floored at kMinInside of the cube.
 #include <cstdint>
 #include <vector>
 
@@ -25,6 +27,8 @@ struct CellMeans {
 
 class CellStats {
  public:
+  static constexpr double kMinInside = 0.05;
+
   explicit CellStats(const bus::CouplingGeometry& geo);
 
   // Collective: one sample of this rank's particles, summed over all ranks.
@@ -37,6 +41,7 @@ class CellStats {
 
  private:
   std::vector<uint32_t> active_;  // flat indices of the active cells
+  std::vector<double> inside_;    // their fractions inside the walls
   CellGrid grid_;
   std::vector<double> sums_, maxs_, packed_, packed_max_;  // scratch
 };

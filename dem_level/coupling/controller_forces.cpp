@@ -16,8 +16,10 @@ constexpr double kPhiFloor = 0.4;
 }  // namespace
 
 ControllerForces::ControllerForces(const bus::CouplingGeometry& geo)
-    : geo_(geo), top_(geo.top()), depth_(geo.grid().fade_depth()), area_(geo.cell_size() * geo.cell_size()),
-      wsum_(geo.faces(), 0.0) {}
+    : geo_(geo), top_(geo.top()), depth_(geo.grid().fade_depth()), wsum_(geo.faces(), 0.0) {
+  // The traction acts on the part of a face inside the walls: a face half cut by the cone carries half.
+  for (size_t f = 0; f < geo.faces(); ++f) area_.push_back(geo.cell_size() * geo.cell_size() * geo.inside_area(f));
+}
 
 void ControllerForces::set_traction(std::vector<double> traction, std::vector<double> speed_limit) {
   const size_t nf = geo_.faces();
@@ -75,8 +77,8 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
   // radius or more below the surface, so it weighs phi h^2 (D - r)^2 / (2 D), not phi h^2 D / 2.
   const double r = sums[nf + 1] > 0.0 ? sums[nf] / sums[nf + 1] : 0.0;
   const double reach = std::max(depth_ - r, 0.5 * depth_);
-  const double floor = kPhiFloor * area_ * reach * reach / (2.0 * depth_);
-  for (size_t f = 0; f < nf; ++f) wsum_[f] = std::max(sums[f], floor);
+  const double floor = kPhiFloor * reach * reach / (2.0 * depth_);
+  for (size_t f = 0; f < nf; ++f) wsum_[f] = std::max(sums[f], floor * area_[f]);
 }
 
 void ControllerForces::refresh(const Particles& p, double band) {
@@ -99,7 +101,7 @@ void ControllerForces::apply(Particles& p) const {
       if (f < 0) continue;
       const auto fs = static_cast<size_t>(f);
       if (wsum_[fs] <= 0.0 || traction_[fs] == 0.0) continue;
-      Vec3 F{0.0, 0.0, -traction_[fs] * area_ * w / wsum_[fs]};
+      Vec3 F{0.0, 0.0, -traction_[fs] * area_[fs] * w / wsum_[fs]};
       if (!vmax_.empty()) {
         const Vec3& v = p.v[i];
         const double v2 = norm2(v), fv = dot(F, v);

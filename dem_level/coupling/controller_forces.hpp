@@ -5,10 +5,10 @@
 // Fine role, per transition cell c (face f) with traction T_f [Pa] and speed
 // limit vmax_f: a particle whose centre lies in the cell's column at depth
 // s = top - z in [0, D) (D = grid.fade_depth) has the weight w = V (1 - s/D) and
-// gets   F = -z T_f h^2 w / W_f,   W_f = sum of the weights over all ranks, taken
+// gets   F = -z T_f A_f w / W_f,   W_f = sum of the weights over all ranks, taken
 // once at the start of the interval, so that the forces of a cell add up to
-// T_f h^2 there. A particle at or above vmax_f loses the component of F along
-// its velocity that would make it faster.
+// T_f A_f there (A_f: the face's area inside the walls). A particle at or
+// above vmax_f loses the component of F along its velocity that would make it faster.
 //
 // Coarse role, per active cell c with acceleration a_c: every particle whose
 // centre is in the cell gets F = m a_c.
@@ -44,7 +44,8 @@ class ControllerForces {
 
  private:
   bus::CouplingGeometry geo_;
-  double top_ = 0.0, depth_ = 0.0, area_ = 0.0;
+  double top_ = 0.0, depth_ = 0.0;
+  std::vector<double> area_;  // per face: its area inside the walls [m^2]
   std::vector<double> traction_, vmax_, wsum_;
   std::vector<Vec3> accel_;
   bool traction_on_ = false, accel_on_ = false;

@@ -11,7 +11,7 @@ const char* to_string(Role r) { return r == Role::Coarse ? "coarse" : "fine"; }
 
 GridLink::GridLink(uint32_t index, const bus::CouplingGrid& grid, Role role)
     : index_(index), role_(role), geo_(grid), top_(geo_.top()), lo_(geo_.box_lo()), hi_(geo_.box_hi()), flux_(geo_),
-      cells_(geo_), forces_(geo_) {
+      cells_(geo_), forces_(geo_), returned_(geo_.faces(), 0.0) {
   if (role == Role::Coarse && grid.radius_bins_size() < 2)
     throw std::invalid_argument("grid " + std::to_string(index) + ": radius_bins has " +
                                 std::to_string(grid.radius_bins_size()) +
@@ -46,6 +46,13 @@ std::vector<ParticleInit> GridLink::parse_inserts(const bus::GridCommands& c, in
   return out;
 }
 
+void GridLink::count_removed(const Vec3& x, double mass) {
+  removed_ += 1.0;
+  removed_mass_ += mass;
+  const int f = geo_.exit_face(x);
+  if (f >= 0) returned_[static_cast<size_t>(f)] += mass;
+}
+
 void GridLink::begin_interval(const bus::GridCommands* c, const Particles& p, const Comm& comm, uint64_t inserted,
                               double inserted_mass) {
   const std::string where = "grid " + std::to_string(index_) + " (" + to_string(role_) + " level): ";
@@ -67,6 +74,7 @@ void GridLink::begin_interval(const bus::GridCommands* c, const Particles& p, co
   inserted_ = inserted;
   inserted_mass_ = inserted_mass;
   removed_ = removed_mass_ = 0.0;
+  returned_.assign(geo_.faces(), 0.0);
 }
 
 bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_max) {
@@ -100,7 +108,16 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
     if (!all.empty()) std::memcpy(g.mutable_occupants()->mutable_data(), all.data(), all.size());
     g.set_occupants_sent(true);
   }
+  {  // both roles: the mass in the region, independent of the crossing counts (a mass check)
+    double m = 0.0;
+    for (size_t i = 0; i < p.n_local(); ++i)
+      if (geo_.locate(p.x[i]) >= 0) m += p.mass[i];
+    g.set_mass_in_region(comm.sum(m));
+  }
   if (role_ == Role::Fine) {
+    returned_.resize(geo_.faces(), 0.0);
+    comm.sum_in_place(returned_.data(), returned_.size());
+    g.mutable_face_returned_mass()->Assign(returned_.begin(), returned_.end());
     double removed[2] = {removed_, removed_mass_};
     comm.sum_in_place(removed, 2);
     g.set_inserted(inserted_);

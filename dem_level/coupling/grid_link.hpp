@@ -67,10 +67,8 @@ class GridLink {
   bool leaves(const Vec3& x) const {
     return role_ == Role::Fine && (x.z > top_ || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y);
   }
-  void count_removed(double mass) {
-    removed_ += 1.0;
-    removed_mass_ += mass;
-  }
+  // Fine role: a particle at x left the region (removed by the level); its mass goes back to its face.
+  void count_removed(const Vec3& x, double mass);
   // Collective: one sample of the cell statistics.
   void sample(const Particles& p, const std::vector<double>& stress6, const Comm& comm) {
     cells_.sample(p, stress6, comm);
@@ -95,6 +93,7 @@ class GridLink {
   uint64_t inserted_ = 0;
   double inserted_mass_ = 0.0;
   double removed_ = 0.0, removed_mass_ = 0.0;  // this rank's, this interval
+  std::vector<double> returned_;               // per face, this rank's, this interval [kg]
 };
 
 }  // namespace mlcg::coupling

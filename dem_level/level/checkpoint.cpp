@@ -67,6 +67,10 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   w.set_attr("/", "next_id", next_id_);
   w.set_attr("/", "removed", removed_);
   w.set_attr("/", "removed_mass", removed_mass_);
+  for (int e = 0; e < kExits; ++e) {
+    w.set_attr("/", std::string("removed_") + to_string(static_cast<Exit>(e)), removed_by_[e]);
+    w.set_attr("/", std::string("removed_mass_") + to_string(static_cast<Exit>(e)), removed_mass_by_[e]);
+  }
   w.set_attr("/", "explicit_count", explicit_count_);
   w.set_attr("/", "explicit_mass", explicit_mass_);
   w.set_attr("/", "particle_steps", particle_steps_);
@@ -80,6 +84,8 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   w.set_attr("/", "wall_seconds", wall_seconds_before_);
   w.set_attr("/", "coupling_inserted", coupling.inserted);
   w.set_attr("/", "coupling_worst_insert_overlap", coupling.worst_insert_overlap);
+  w.set_attr("/", "coupling_worst_insert_wall_overlap", coupling.worst_insert_wall_overlap);
+  w.set_attr("/", "coupling_inserted_outside_walls", coupling.inserted_outside_walls);
   std::ostringstream rng;
   rng << rng_;
   w.set_attr("/", "rng", rng.str());
@@ -198,6 +204,11 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   next_id_ = r.attr_int64("/", "next_id");
   removed_ = r.attr_int64("/", "removed");
   removed_mass_ = r.attr_double("/", "removed_mass");
+  for (int e = 0; e < kExits; ++e) {  // older checkpoints do not split the removals by exit
+    const std::string name = to_string(static_cast<Exit>(e));
+    removed_by_[e] = r.has_attr("/", "removed_" + name) ? r.attr_int64("/", "removed_" + name) : 0;
+    removed_mass_by_[e] = r.has_attr("/", "removed_" + name) ? r.attr_double("/", "removed_mass_" + name) : 0.0;
+  }
   explicit_count_ = r.attr_int64("/", "explicit_count");
   explicit_mass_ = r.attr_double("/", "explicit_mass");
   particle_steps_ = r.attr_uint64("/", "particle_steps");
@@ -212,6 +223,10 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   if (r.has_attr("/", "coupling_inserted")) {  // written by this build on
     coupling_restored_.inserted = r.attr_uint64("/", "coupling_inserted");
     coupling_restored_.worst_insert_overlap = r.attr_double("/", "coupling_worst_insert_overlap");
+  }
+  if (r.has_attr("/", "coupling_inserted_outside_walls")) {
+    coupling_restored_.worst_insert_wall_overlap = r.attr_double("/", "coupling_worst_insert_wall_overlap");
+    coupling_restored_.inserted_outside_walls = r.attr_uint64("/", "coupling_inserted_outside_walls");
   }
   std::istringstream rng(r.attr_string("/", "rng"));
   rng >> rng_;

@@ -168,13 +168,17 @@ void Level::rebuild() {
   }
   std::vector<int32_t> keep;
   keep.reserve(n);
-  double gone[2] = {0.0, 0.0};  // count, mass
+  double gone[2 * kExits] = {};  // count, mass per exit
   for (int32_t i : order) {
     const Vec3& x = p_.x[static_cast<size_t>(i)];
-    if (x.x < dom_lo_.x || x.y < dom_lo_.y || x.z < dom_lo_.z || x.x > dom_hi_.x || x.y > dom_hi_.y ||
-        x.z > dom_hi_.z || (coupled_ && coupling_removes(static_cast<size_t>(i)))) {
-      gone[0] += 1.0;
-      gone[1] += p_.mass[static_cast<size_t>(i)];
+    int exit = -1;
+    if (x.z < dom_lo_.z) exit = static_cast<int>(Exit::Outlet);
+    else if (x.x < dom_lo_.x || x.y < dom_lo_.y || x.x > dom_hi_.x || x.y > dom_hi_.y || x.z > dom_hi_.z)
+      exit = static_cast<int>(Exit::Wall);
+    else if (coupled_ && coupling_removes(static_cast<size_t>(i))) exit = static_cast<int>(Exit::Boundary);
+    if (exit >= 0) {
+      gone[2 * exit] += 1.0;
+      gone[2 * exit + 1] += p_.mass[static_cast<size_t>(i)];
       continue;
     }
     keep.push_back(i);
@@ -186,11 +190,18 @@ void Level::rebuild() {
   }
   {
     PhaseTimer t(times_.comm);
-    double counts[3] = {gone[0], gone[1], static_cast<double>(p_.n_local())};
-    comm_.sum_in_place(counts, 3);
-    removed_ += static_cast<int64_t>(std::llround(counts[0]));
-    removed_mass_ += counts[1];
-    global_particles_ = static_cast<int64_t>(std::llround(counts[2]));
+    double counts[2 * kExits + 1];
+    std::copy(gone, gone + 2 * kExits, counts);
+    counts[2 * kExits] = static_cast<double>(p_.n_local());
+    comm_.sum_in_place(counts, 2 * kExits + 1);
+    for (int e = 0; e < kExits; ++e) {
+      const auto k = static_cast<int64_t>(std::llround(counts[2 * e]));
+      removed_by_[e] += k;
+      removed_mass_by_[e] += counts[2 * e + 1];
+      removed_ += k;
+      removed_mass_ += counts[2 * e + 1];
+    }
+    global_particles_ = static_cast<int64_t>(std::llround(counts[2 * kExits]));
     ghosts_.build(comm_, dec_, p_, ghost_cutoff_);
   }
 
@@ -320,6 +331,8 @@ MassBalance Level::mass_balance() const {
   b.present_mass = present[1];
   b.removed = removed_;
   b.removed_mass = removed_mass_;
+  std::copy(removed_by_, removed_by_ + kExits, b.removed_by);
+  std::copy(removed_mass_by_, removed_mass_by_ + kExits, b.removed_mass_by);
   return b;
 }
 

@@ -36,6 +36,7 @@ namespace spdlog { class logger; }
 
 namespace mlcg {
 namespace io { class SnapshotSeries; class GridSeries; }
+namespace bus { class CouplingGeometry; }
 
 struct LevelOptions {
   std::filesystem::path out_dir;   // run folder; empty = write nothing (tests)
@@ -71,9 +72,18 @@ struct PhaseTimes {
 enum class RunStatus { Completed, StepLimit, Interrupted, Failed };
 const char* to_string(RunStatus s);
 
+// Where a removed particle left: below the domain (the outlet), out of a fine region through its
+// boundary surface (handed back to the coupler), or out of the domain sideways or above (through or
+// over a wall: never expected).
+enum class Exit : uint8_t { Outlet = 0, Boundary = 1, Wall = 2 };
+constexpr int kExits = 3;
+const char* to_string(Exit e);
+
 struct MassBalance {
   int64_t requested = 0, inserted = 0, present = 0, removed = 0, failed = 0, pending = 0;
   double inserted_mass = 0.0, present_mass = 0.0, removed_mass = 0.0, failed_mass = 0.0;
+  int64_t removed_by[kExits] = {0, 0, 0};
+  double removed_mass_by[kExits] = {0.0, 0.0, 0.0};
 };
 
 class Level {
@@ -125,9 +135,12 @@ class Level {
   bool coupled() const { return coupled_ != nullptr; }
   // Collective. Intervals run, particles received from the coupler, and the largest overlap of
   // one of them with the particles of its rank at insertion, as a share of its diameter.
+  // Also the largest overlap of an inserted particle with a wall (share of its diameter) and how
+  // many were placed with their centre outside the walls (the grid's inside point cannot reach it).
   struct CouplingReport {
     uint64_t intervals = 0, inserted = 0;
-    double worst_insert_overlap = 0.0;
+    double worst_insert_overlap = 0.0, worst_insert_wall_overlap = 0.0;
+    uint64_t inserted_outside_walls = 0;
   };
   CouplingReport coupling_report() const;
 
@@ -184,6 +197,7 @@ class Level {
   void coupling_forces();               // controller forces
   void coupling_end_step();             // cell samples; at an interval end the statistics
   bool coupling_removes(size_t i);      // rebuild: particle i left a fine region (counted)
+  void check_inserted_walls(Coupled& c, const bus::CouplingGeometry& geo, size_t first);  // particles [first, n)
   void coupling_refresh();              // rebuild: crossing candidates
   bool coupling_finished() const;       // the coupler said stop and the last interval is done
   const std::string& coupling_stop_reason() const;  // non-empty: the coupler cut the run short
@@ -227,6 +241,8 @@ class Level {
   uint64_t step_ = 0;
   int64_t next_id_ = 0;
   int64_t removed_ = 0;
+  int64_t removed_by_[kExits] = {0, 0, 0};
+  double removed_mass_by_[kExits] = {0.0, 0.0, 0.0};
   int64_t explicit_count_ = 0;      // the case's [[particles]] and [initial] particles
   double explicit_mass_ = 0.0;
   CouplingReport coupling_restored_;  // a coupled level's counters from its checkpoint (inserted, worst overlap)

@@ -44,6 +44,8 @@ struct Level::Coupled {
   double density = 0.0;
   uint64_t inserted = 0;      // particles received from the coupler (all ranks)
   double worst_overlap = 0.0; // largest overlap of an inserted particle / its diameter, on the inserting rank
+  double worst_wall_overlap = 0.0;  // the same with the walls
+  uint64_t outside_walls = 0;       // inserted particles whose centre lies outside the walls (this rank)
 };
 
 namespace {
@@ -122,6 +124,8 @@ void Level::connect_coupler() {
   c->k = start;
   c->inserted = coupling_restored_.inserted;  // the run before the checkpoint's, so the report covers the whole run
   c->worst_overlap = coupling_restored_.worst_insert_overlap;
+  c->worst_wall_overlap = coupling_restored_.worst_insert_wall_overlap;
+  c->outside_walls = comm_.rank() == 0 ? coupling_restored_.inserted_outside_walls : 0;
   for (int g = 0; g < w.grids_size(); ++g) {
     const auto& grid = w.grids(g);
     const bool coarse = grid.coarse_level() == w.level_index(), fine = grid.fine_level() == w.level_index();
@@ -192,6 +196,7 @@ void Level::coupling_begin_step() {
       count = list.size();
       c.inserted += count;
       c.worst_overlap = std::max(c.worst_overlap, insert_overlap(p_, first_new, 2.0 * std::max(r_max_, r_big)));
+      check_inserted_walls(c, c.grids[l].geometry(), first_new);
       next_id_ += static_cast<int64_t>(count);
       explicit_count_ += static_cast<int64_t>(count);  // requested and inserted, like the case's own particles
       explicit_mass_ += mass;
@@ -211,6 +216,22 @@ void Level::coupling_begin_step() {
       c.grids[l].begin_interval(of[l], p_, comm_, count, mass);
     } catch (const std::invalid_argument& e) {
       throw CouplingStop(e.what());
+    }
+  }
+}
+
+void Level::check_inserted_walls(Coupled& c, const bus::CouplingGeometry& geo, size_t first) {
+  // Independent of the coupler's own placement test: the level's walls, the grid's inside point.
+  const auto& ip = geo.grid().inside_point();
+  const bool can_reach = ip.size() == 3;
+  const Vec3 inside = can_reach ? Vec3{ip[0], ip[1], ip[2]} : Vec3{};
+  for (size_t i = first; i < p_.n_local(); ++i) {
+    c.worst_wall_overlap = std::max(c.worst_wall_overlap, walls_.overlap(p_.x[i], p_.radius[i]) / (2.0 * p_.radius[i]));
+    if (can_reach && walls_.crosses(inside, p_.x[i])) {
+      if (c.outside_walls == 0)
+        log_->warn("coupling: inserted particle {} at ({:.5g}, {:.5g}, {:.5g}) m lies outside the walls", p_.id[i],
+                   p_.x[i].x, p_.x[i].y, p_.x[i].z);
+      ++c.outside_walls;
     }
   }
 }
@@ -238,7 +259,7 @@ void Level::coupling_forces() {
 bool Level::coupling_removes(size_t i) {
   for (auto& g : coupled_->grids)
     if (g.leaves(p_.x[i])) {
-      g.count_removed(p_.mass[i]);
+      g.count_removed(p_.x[i], p_.mass[i]);
       return true;
     }
   return false;
@@ -258,6 +279,8 @@ Level::CouplingReport Level::coupling_report() const {
   r.intervals = coupled_->k;
   r.inserted = coupled_->inserted;
   r.worst_insert_overlap = comm_.max(coupled_->worst_overlap);
+  r.worst_insert_wall_overlap = comm_.max(coupled_->worst_wall_overlap);
+  r.inserted_outside_walls = static_cast<uint64_t>(comm_.sum(static_cast<int64_t>(coupled_->outside_walls)));
   return r;
 }
 

@@ -242,7 +242,9 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
       {"ranks", comm_.size()}};
   if (coupled_)
     lv["coupling"] = {{"intervals", cr.intervals}, {"inserted_from_coupler", cr.inserted},
-                      {"largest_insert_overlap_of_diameter", cr.worst_insert_overlap}};
+                      {"largest_insert_overlap_of_diameter", cr.worst_insert_overlap},
+                      {"largest_insert_wall_overlap_of_diameter", cr.worst_insert_wall_overlap},
+                      {"inserted_outside_walls", cr.inserted_outside_walls}};
   j["levels"] = json::array({lv});
   json probes = json::array();
   for (const auto& pr : probes_) {
@@ -263,6 +265,9 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
                        {"failed_to_place", b.failed},    {"pending", b.pending},
                        {"inserted_mass_kg", b.inserted_mass}, {"present_mass_kg", b.present_mass},
                        {"removed_mass_kg", b.removed_mass},   {"failed_mass_kg", b.failed_mass}};
+  for (int e = 0; e < kExits; ++e)
+    j["mass_balance"]["removed_by"][to_string(static_cast<Exit>(e))] = {{"count", b.removed_by[e]},
+                                                                         {"mass_kg", b.removed_mass_by[e]}};
   json ev = json::array();
   for (size_t e = 0; e < events_.size(); ++e)
     ev.push_back({{"name", cs_.events[e].name},

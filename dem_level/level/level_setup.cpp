@@ -25,6 +25,15 @@ Vec3 unit(const Vec3& a) { return a / norm(a); }
 
 }  // namespace
 
+const char* to_string(Exit e) {
+  switch (e) {
+    case Exit::Outlet: return "outlet";
+    case Exit::Boundary: return "boundary_surface";
+    case Exit::Wall: return "wall";
+  }
+  return "unknown";
+}
+
 const char* to_string(RunStatus s) {
   switch (s) {
     case RunStatus::Completed: return "completed";

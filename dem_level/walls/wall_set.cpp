@@ -48,18 +48,48 @@ int WallSet::wall_of_prim(int32_t p) const {
 
 namespace {
 
-// Side of a point relative to a surface of revolution, in its meridian plane:
-// +1 / -1 on either side, 0 where the point projects outside the segment.
-int revolution_side(const RevolutionWall& w, const Vec3& x) {
-  const Vec3 rel = x - w.c;
-  const double s = dot(rel, w.a);
-  const double rho = std::sqrt(norm2(rel - s * w.a));
+// Whether the segment a-b crosses a surface of revolution (its meridian
+// segment turned about the axis), solved in closed form: along the segment the
+// axial coordinate s is linear in u and rho^2 quadratic. On a frustum
+// (ds != 0) the generating line gives rho = L(u), linear, so a crossing is a
+// root of rho^2 - L^2 with L >= 0; on a disk or annulus (ds = 0) it is where s
+// reaches s0. Either way the crossing point must lie on the wall's own segment
+// (0 <= t <= 1). A segment that only touches the surface does not cross it.
+// (Classifying the two ends by the side of their own feet, as a march did,
+// misses a segment that enters the solid beyond a junction: both ends project
+// past the wall's ends.)
+bool segment_crosses_revolution(const RevolutionWall& w, const Vec3& a, const Vec3& b) {
+  const Vec3 d = b - a, ra = a - w.c;
+  const double sa = dot(ra, w.a), sd = dot(d, w.a);
+  const Vec3 pa = ra - sa * w.a, pd = d - sd * w.a;  // radial parts: rho(u) = |pa + u pd|
   const double dr = w.rho1 - w.rho0, ds = w.s1 - w.s0;
-  const double len2 = dr * dr + ds * ds;
-  const double t = len2 > 0.0 ? ((rho - w.rho0) * dr + (s - w.s0) * ds) / len2 : 0.0;
-  if (t < 0.0 || t > 1.0) return 0;
-  const double c = dr * (s - w.s0) - ds * (rho - w.rho0);
-  return c > 0.0 ? 1 : (c < 0.0 ? -1 : 0);
+  const auto rho_at = [&](double u) { return std::sqrt(norm2(pa + u * pd)); };
+  const auto on_wall = [](double t) { return t >= 0.0 && t <= 1.0; };
+  if (ds == 0.0) {
+    if (dr == 0.0 || sd == 0.0) return false;
+    const double u = (w.s0 - sa) / sd;
+    return u >= 0.0 && u <= 1.0 && on_wall((rho_at(u) - w.rho0) / dr);
+  }
+  const double k = dr / ds;                           // rho on the line: rho0 + k (s - s0)
+  const double al = w.rho0 + k * (sa - w.s0), be = k * sd;  // L(u) = al + be u
+  const double qa = norm2(pd) - be * be, qb = 2.0 * (dot(pa, pd) - al * be), qc = norm2(pa) - al * al;
+  double roots[2];
+  int n = 0;
+  if (std::fabs(qa) < 1e-14 * (norm2(pd) + be * be)) {
+    if (qb != 0.0) roots[n++] = -qc / qb;
+  } else {
+    const double disc = qb * qb - 4.0 * qa * qc;
+    if (disc <= 0.0) return false;  // no root, or a tangent touch
+    const double sq = std::sqrt(disc), q = -0.5 * (qb + std::copysign(sq, qb));
+    roots[n++] = q / qa;
+    if (q != 0.0) roots[n++] = qc / q;
+  }
+  for (int i = 0; i < n; ++i) {
+    const double u = roots[i];
+    if (!(u >= 0.0 && u <= 1.0) || al + be * u < 0.0) continue;
+    if (on_wall((sa + u * sd - w.s0) / ds)) return true;
+  }
+  return false;
 }
 
 bool segment_hits_triangle(const Vec3& a, const Vec3& b, const Vec3& p0, const Vec3& p1, const Vec3& p2) {
@@ -96,6 +126,23 @@ bool WallSet::touches(const Vec3& x, double r) const {
   return false;
 }
 
+double WallSet::overlap(const Vec3& x, double r) const {
+  double worst = 0.0;
+  WallGeom g;
+  for (int32_t k = 0; k < analytic_count(); ++k) {
+    if (!info_[static_cast<size_t>(analytic_wall_[static_cast<size_t>(k)])].active) continue;
+    if (analytic_[static_cast<size_t>(k)].closest(x, g)) worst = std::max(worst, r - g.dist);
+  }
+  std::vector<int32_t> tris;
+  for (const auto& in : info_) {
+    if (!in.is_mesh || !in.active) continue;
+    const TriangleMesh& m = *meshes_[static_cast<size_t>(in.mesh)];
+    m.query(x, r, tris);
+    for (int32_t t : tris) worst = std::max(worst, r - m.distance(t, x));
+  }
+  return worst;
+}
+
 bool WallSet::crosses(const Vec3& a, const Vec3& b) const {
   const double len = std::sqrt(norm2(b - a));
   for (int32_t k = 0; k < analytic_count(); ++k) {
@@ -106,14 +153,7 @@ bool WallSet::crosses(const Vec3& a, const Vec3& b) const {
       if ((da > 0.0) != (db > 0.0)) return true;
       continue;
     }
-    // March along the segment; a change of side within the surface's extent is a crossing.
-    const int steps = std::clamp(static_cast<int>(len / 1e-3), 16, 4096);
-    int prev = revolution_side(w.rev, a);
-    for (int q = 1; q <= steps; ++q) {
-      const int side = revolution_side(w.rev, a + (static_cast<double>(q) / steps) * (b - a));
-      if (side != 0 && prev != 0 && side != prev) return true;
-      if (side != 0) prev = side;
-    }
+    if (segment_crosses_revolution(w.rev, a, b)) return true;
   }
   std::vector<int32_t> tris;
   const Vec3 mid = 0.5 * (a + b);

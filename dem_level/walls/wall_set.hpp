@@ -61,6 +61,9 @@ class WallSet {
   bool crosses(const Vec3& a, const Vec3& b) const;
   // True if the sphere (x, r) overlaps an active wall (behind a plane counts as overlapping).
   bool touches(const Vec3& x, double r) const;
+  // Largest overlap r - distance of the sphere (x, r) with an active wall, 0 when it touches none
+  // (a centre behind a plane overlaps by r plus its depth).
+  double overlap(const Vec3& x, double r) const;
 
   void build_candidates(const Particles& p, double skin, bool with_history);
   void save_history(const Particles& p, ContactHistory& out) const;

@@ -1,5 +1,6 @@
 #include "bus/coupling_grid.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -23,6 +24,17 @@ CouplingGeometry::CouplingGeometry(const CouplingGrid& g) : g_(g) {
     face_of_cell_.push_back(top_layer ? static_cast<int>(faces_.size()) : -1);
     if (top_layer) faces_.push_back(cells_.size() - 1);
   }
+  const auto fractions = [](const auto& a, size_t want, const char* what) {
+    if (a.size() != 0 && static_cast<size_t>(a.size()) != want)
+      throw std::invalid_argument(std::string("coupling grid: ") + what + " has " + std::to_string(a.size()) +
+                                  " values, expected " + std::to_string(want));
+    for (double v : a)
+      if (!(v > 0.0 && v <= 1.0))
+        throw std::invalid_argument(std::string("coupling grid: ") + what + " value " + std::to_string(v) +
+                                    " outside (0, 1]");
+  };
+  fractions(g.cell_inside(), cells_.size(), "cell_inside");
+  fractions(g.face_inside(), faces_.size(), "face_inside");
 }
 
 Vec3 CouplingGeometry::box_hi() const {
@@ -54,6 +66,28 @@ int CouplingGeometry::face_column(const Vec3& x) const {
   const double h = g_.cell_size();
   const int c = locate({x.x, x.y, top() - 0.5 * h});
   return c < 0 ? -1 : face_of_cell_[static_cast<size_t>(c)];
+}
+
+}  // namespace mlcg::bus
+
+namespace mlcg::bus {
+
+int CouplingGeometry::exit_face(const Vec3& x) const {
+  const int f = face_column(x);
+  if (f >= 0 || faces_.empty()) return f;
+  const double h = g_.cell_size(), z = top();
+  int best = -1;
+  double best_d2 = 0.0;
+  for (size_t q = 0; q < faces_.size(); ++q) {  // rare (a particle beside the faces): brute force
+    const Vec3 lo = cell_lo(faces_[q]);
+    const double dx = std::max({lo.x - x.x, 0.0, x.x - lo.x - h}), dy = std::max({lo.y - x.y, 0.0, x.y - lo.y - h});
+    const double d2 = dx * dx + dy * dy + (x.z - z) * (x.z - z);
+    if (best < 0 || d2 < best_d2) {
+      best = static_cast<int>(q);
+      best_d2 = d2;
+    }
+  }
+  return best;
 }
 
 }  // namespace mlcg::bus

@@ -35,10 +35,18 @@ class CouplingGeometry {
   Vec3 box_lo() const { return origin(); }
   Vec3 box_hi() const;
 
+  // Fraction of active cell c's volume / boundary face f's area inside the walls (1 when the grid
+  // does not say): the statistics divide by the inside volume, the traction acts on the inside area.
+  double inside_volume(size_t c) const { return g_.cell_inside_size() ? g_.cell_inside(static_cast<int>(c)) : 1.0; }
+  double inside_area(size_t f) const { return g_.face_inside_size() ? g_.face_inside(static_cast<int>(f)) : 1.0; }
+
   // Active cell containing x, or -1 (outside the box or in an inactive cell).
   int locate(const Vec3& x) const;
   // Boundary face whose column (x, y within the face) contains x, or -1.
   int face_column(const Vec3& x) const;
+  // The boundary face through which a point outside the region most likely left it: the face whose
+  // column holds it, else the face nearest to it; -1 when the grid has no face.
+  int exit_face(const Vec3& x) const;
 
  private:
   CouplingGrid g_;
