@@ -124,6 +124,7 @@ std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vecto
     for (double m : fs.face_returned_mass()) r.log.returned_mass += m;
     r.log.coarse_mass = cs.mass_in_region();
     r.log.fine_mass = fs.mass_in_region();
+    r.log.fine_leaving = fs.mass_leaving();
     // Placing needs the fine particles in the slabs; without them the mass waits an interval.
     std::vector<Insert> ins;
     if (fs.occupants_sent()) {
@@ -144,20 +145,25 @@ std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vecto
       r.log.inserted_mass += r.planner.mass_of(p.r);
     }
 
-    // Transition layer: PI on sigma_zz, traction and speed limit for the fine level.
-    const size_t nf = r.geo.faces();
-    r.log.setpoint.assign(nf, 0.0);
-    r.log.measured.assign(nf, 0.0);
-    r.log.traction.assign(nf, 0.0);
+    // Transition layer: PI on the normal stress across each boundary face (sigma_zz under the top,
+    // sigma_xx / sigma_yy inside an open side), traction and speed limit for the fine level.
+    const size_t nf = r.geo.faces(), nt = r.geo.top_faces();
+    r.log.setpoint.assign(nt, 0.0);
+    r.log.measured.assign(nt, 0.0);
+    r.log.traction.assign(nt, 0.0);
     for (size_t f = 0; f < nf; ++f) {
       const int c = static_cast<int>(r.geo.cell_of_face(f));
-      const double set = cs.cell_stress(6 * c + 2), pv = fs.cell_stress(6 * c + 2);
+      const bus::Side side = r.geo.side_of_face(f);
+      const int nn = side == bus::Side::Top ? 2 : side <= bus::Side::XHi ? 0 : 1;  // xx yy zz
+      const double set = cs.cell_stress(6 * c + nn), pv = fs.cell_stress(6 * c + nn);
       const bool active = cs.cell_volume_fraction(c) >= r.cfg.phi_min && fs.cell_volume_fraction(c) >= r.cfg.phi_min;
       if (active) r.pi[f].update(set, pv, cfg_.interval);
       else r.pi[f].hold();
-      r.log.setpoint[f] = set;
-      r.log.measured[f] = pv;
-      r.log.traction[f] = r.pi[f].output;
+      if (f < nt) {
+        r.log.setpoint[f] = set;
+        r.log.measured[f] = pv;
+        r.log.traction[f] = r.pi[f].output;
+      }
       fine.add_traction(r.pi[f].output);
       fine.add_speed_limit(cs.cell_max_speed(c));
     }

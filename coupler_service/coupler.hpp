@@ -52,6 +52,7 @@ struct RegionLog {
   double inserted_mass = 0.0;
   double returned_mass = 0.0;                        // fine mass that left the region this interval
   double coarse_mass = 0.0, fine_mass = 0.0;         // each level's mass in the region's active cells
+  double fine_leaving = 0.0;                         // fine mass out of the region, not yet removed
 };
 
 class Coupler {

@@ -47,8 +47,10 @@ void Coupler::save(bus::CouplerCheckpoint& out) const {
       rc.add_pi_integral(pi.integral);
       rc.add_pi_output(pi.output);
     }
-    for (const auto& p : r->last)
+    for (const auto& p : r->last) {
       for (double v : {p.x.x, p.x.y, p.x.z, p.r, p.v.x, p.v.y, p.v.z}) rc.add_last_insert(v);
+      rc.add_last_insert_face(p.face);
+    }
   }
 }
 
@@ -92,7 +94,8 @@ void Coupler::restore(const bus::CouplerCheckpoint& in) {
     r.last.clear();
     for (int i = 0; i + 6 < rc.last_insert_size(); i += 7) {
       const auto& a = rc.last_insert();
-      r.last.push_back({{a[i], a[i + 1], a[i + 2]}, a[i + 3], {a[i + 4], a[i + 5], a[i + 6]}});
+      const int face = rc.last_insert_face_size() == rc.last_insert_size() / 7 ? rc.last_insert_face(i / 7) : -1;
+      r.last.push_back({{a[i], a[i + 1], a[i + 2]}, a[i + 3], {a[i + 4], a[i + 5], a[i + 6]}, face});
     }
   }
 }

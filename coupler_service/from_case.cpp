@@ -34,6 +34,45 @@ std::vector<uint32_t> clipped_cells(const WallSet& walls, const Vec3& origin, do
   return cells;
 }
 
+constexpr int kFaceSamples = 8;  // per side of a face
+
+// Share of the n^2 sample points of a face, moved `out` along its outward normal, reachable from `inside`.
+double open_share(const WallSet& walls, const bus::CouplingGeometry& geo, size_t f, const Vec3& inside, double out) {
+  constexpr int n = kFaceSamples;
+  Vec3 lo, hi;
+  geo.face_slab(f, 0.0, lo, hi);
+  const Vec3 shift = -out * geo.face_inward(f);
+  int in = 0;
+  for (int q = 0; q < n * n; ++q) {
+    const double u = (q % n + 0.5) / n, v = (q / n + 0.5) / n;
+    Vec3 x = lo;  // u, v across the face's two in-plane axes
+    if (geo.is_top(f)) x += Vec3{u * (hi.x - lo.x), v * (hi.y - lo.y), 0.0};
+    else if (lo.x == hi.x) x += Vec3{0.0, u * (hi.y - lo.y), v * (hi.z - lo.z)};
+    else x += Vec3{u * (hi.x - lo.x), 0.0, v * (hi.z - lo.z)};
+    in += !walls.crosses(inside, x + shift);
+  }
+  return static_cast<double>(in) / (n * n);
+}
+
+// The box sides through which the geometry goes on beyond the region (a region that does not span
+// the vessel): any sample point just outside the face reachable from `inside` makes it a boundary face.
+void open_sides(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& inside) {
+  const bus::CouplingGeometry geo(gr);
+  const double eps = 1e-6 * geo.cell_size();
+  for (size_t c = 0; c < geo.cells(); ++c) {
+    const uint32_t flat = geo.flat(c), i = flat % gr.nx(), j = (flat / gr.nx()) % gr.ny();
+    const bool on[4] = {i == 0, i == gr.nx() - 1, j == 0, j == gr.ny() - 1};
+    for (uint32_t d = 0; d < 4; ++d) {
+      if (!on[d]) continue;
+      bus::CouplingGrid one = gr;  // this face alone, to sample it
+      one.clear_side_faces();
+      one.add_side_faces(static_cast<uint32_t>(4 * c + d));
+      const bus::CouplingGeometry g1(one);
+      if (open_share(walls, g1, g1.faces() - 1, inside, eps) > 0.0) gr.add_side_faces(static_cast<uint32_t>(4 * c + d));
+    }
+  }
+}
+
 // Fractions of each active cell's volume and of each boundary face's area that
 // are reachable from `inside` (inside the walls), from n^3 / n^2 sample points.
 void inside_fractions(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& inside) {
@@ -47,13 +86,8 @@ void inside_fractions(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& i
       in += !walls.crosses(inside, lo + h * Vec3{(q % n + 0.5) / n, ((q / n) % n + 0.5) / n, (q / (n * n) + 0.5) / n});
     gr.add_cell_inside(std::max(floor, static_cast<double>(in) / (n * n * n)));
   }
-  for (size_t f = 0; f < geo.faces(); ++f) {
-    const Vec3 lo = geo.cell_lo(geo.cell_of_face(f));
-    int in = 0;
-    for (int q = 0; q < n * n; ++q)
-      in += !walls.crosses(inside, Vec3{lo.x + h * (q % n + 0.5) / n, lo.y + h * (q / n + 0.5) / n, geo.top() - 1e-6 * h});
-    gr.add_face_inside(std::max(floor, static_cast<double>(in) / (n * n)));
-  }
+  for (size_t f = 0; f < geo.faces(); ++f)  // just inside a top face, just outside a side face (both open)
+    gr.add_face_inside(std::max(floor, open_share(walls, geo, f, inside, (geo.is_top(f) ? -1e-6 : 1e-6) * h)));
 }
 
 }  // namespace
@@ -128,6 +162,7 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
       throw std::invalid_argument(rs.loc.str() + ": no cell of the region's top layer lies inside the geometry "
                                   "(check min/max, or give `inside` = a point inside the walls)");
     for (uint32_t c : cells) gr.add_cells(c);
+    open_sides(*walls, gr, inside);
     inside_fractions(*walls, gr, inside);
     for (double v : {inside.x, inside.y, inside.z}) gr.add_inside_point(v);
     const double d_coarse = 2.0 * r_max * ac, d_fine = 2.0 * r_max * af;

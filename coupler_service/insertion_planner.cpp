@@ -43,12 +43,25 @@ void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std:
       // Favre averages of the net crossing; a net crossing is mostly one-way.
       s.velocity = Vec3{momentum[3 * f], momentum[3 * f + 1], momentum[3 * f + 2]} / mass[f];
       const Vec3 a = Vec3{moment[3 * f], moment[3 * f + 1], moment[3 * f + 2]} / mass[f];
-      if (geo_.face_column(a) == static_cast<int>(f)) {
+      if (anchored_on(f, a)) {
         s.anchor = a;
         s.seen = true;
       }
     }
   }
+}
+
+bool InsertionPlanner::anchored_on(size_t f, const Vec3& a) const {
+  // A top face's anchor lies in its column (a particle born below the surface counts there too); a
+  // side face's within the face's rectangle, at any depth.
+  if (geo_.is_top(f)) return geo_.face_column(a) == static_cast<int>(f);
+  Vec3 lo, hi;
+  geo_.face_slab(f, geo_.cell_size(), lo, hi);
+  const double tol = 1e-9 * geo_.cell_size();
+  const Vec3 n = geo_.face_inward(f);
+  for (int k = 0; k < 3; ++k)
+    if (n[k] == 0.0 && (a[k] < lo[k] - tol || a[k] > hi[k] + tol)) return false;
+  return true;
 }
 
 void InsertionPlanner::add_returned(const std::vector<double>& mass) {
@@ -66,7 +79,7 @@ void InsertionPlanner::add_returned(const std::vector<double>& mass) {
 }
 
 void InsertionPlanner::unplace(const Insert& p) {
-  const int f = geo_.face_column(p.x);
+  const int f = p.face >= 0 ? p.face : geo_.face_column(p.x);
   if (f < 0) return;
   FaceState& s = faces_[static_cast<size_t>(f)];
   s.inserted -= mass_of(p.r);
@@ -107,19 +120,22 @@ bool InsertionPlanner::wants_occupants(uint64_t interval) const {
 std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<Sphere>& occupants) {
   std::vector<Insert> out;
   bool filled = false;  // the hash is filled on the first candidate: most intervals place nothing
-  const double h = geo_.cell_size(), top = geo_.top();
   for (size_t f = 0; f < faces_.size(); ++f) {
     FaceState& s = faces_[f];
     if (!s.seen) continue;
     std::mt19937_64 rng(mix(prm_.seed ^ mix(interval * 0x100000001b3ULL + f)));
-    const Vec3 lo = geo_.cell_lo(geo_.cell_of_face(f));
+    Vec3 slab_lo, slab_hi;
+    geo_.face_slab(f, prm_.insert_depth, slab_lo, slab_hi);
+    const int axis = geo_.is_top(f) ? 2 : geo_.side_of_face(f) <= bus::Side::XHi ? 0 : 1;  // along the normal
     for (;;) {
       if (s.next_radius <= 0.0) s.next_radius = draw_radius(s, rng);
       const double r = s.next_radius, m = mass_of(r);
       if (s.remainder < m) break;
-      const double zlo = top - prm_.insert_depth + r, zhi = top - r;
-      if (zhi < zlo) throw std::runtime_error("insertion planner: insert_depth is smaller than a fine diameter");
-      std::uniform_real_distribution<double> ux(lo.x, lo.x + h), uy(lo.y, lo.y + h), uz(zlo, zhi);
+      Vec3 lo = slab_lo, hi = slab_hi;  // a whole sphere inside the slab along the normal
+      lo[axis] += r;
+      hi[axis] -= r;
+      if (hi[axis] < lo[axis]) throw std::runtime_error("insertion planner: insert_depth is smaller than a fine diameter");
+      std::uniform_real_distribution<double> ux(lo.x, hi.x), uy(lo.y, hi.y), uz(lo.z, hi.z);
       if (!filled) {
         hash_.clear();
         for (const auto& o : occupants) hash_.add(o);
@@ -131,7 +147,7 @@ std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<
         const Vec3 x{ux(rng), uy(rng), uz(rng)};
         if (hash_.overlaps(x, r) || !fits_(s.anchor, x, r)) continue;
         hash_.add(x, r);
-        out.push_back({x, r, s.velocity});
+        out.push_back({x, r, s.velocity, static_cast<int>(f)});
         s.inserted += m;
         s.remainder = s.crossed + s.returned - s.inserted;
         ++s.placed;

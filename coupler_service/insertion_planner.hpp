@@ -6,7 +6,7 @@
 // adds the coarse level's net crossing, then places fine particles while the
 // remainder covers the next particle's mass: radius = a coarse radius drawn
 // from the face's size histogram, divided by the coarse-grain ratio; position
-// by simple sequential inhibition (SSI) in the slab just below the face, free
+// by simple sequential inhibition (SSI) in the slab just inside the face, free
 // of overlap with the fine particles already there, with each other, and with
 // the walls; velocity = the face's Favre (mass-weighted) velocity. A face
 // whose slab has no room keeps its remainder for the next interval. Fine mass
@@ -28,12 +28,17 @@
 
 namespace mlcg::coupling {
 
-struct Insert { Vec3 x; double r; Vec3 v; };
+struct Insert {
+  Vec3 x;
+  double r;
+  Vec3 v;
+  int face = -1;  // the face whose mass it carries (-1: unknown, found from x)
+};
 
 struct PlannerParams {
   double ratio = 2.0;              // alpha_coarse / alpha_fine
   double density = 1000.0;         // of the inserted particles [kg/m^3]
-  double insert_depth = 0.01;      // slab depth below the boundary surface [m]
+  double insert_depth = 0.01;      // slab depth inside the boundary surface [m]
   std::vector<double> radius_bins; // coarse radius bin edges (size bins + 1; equal edges = one radius)
   int attempts = 300;              // SSI candidates per particle before the face gives up this interval
   int attempts_when_full = 30;     // the same for a face whose slab was full last time
@@ -84,10 +89,10 @@ class InsertionPlanner {
   const std::vector<FaceState>& faces() const { return faces_; }
   std::vector<FaceState>& faces_mut() { return faces_; }
   double mass_of(double r) const;
-  int face_of(const Vec3& x) const { return geo_.face_column(x); }
 
  private:
   template <class Rng> double draw_radius(const FaceState& f, Rng& rng) const;
+  bool anchored_on(size_t f, const Vec3& a) const;  // a crossing point mean may serve face f as its anchor
 
   const bus::CouplingGeometry& geo_;
   PlannerParams prm_;

@@ -48,7 +48,7 @@ Service::Service(Coupler& coupler, bus::Channel& channel, ServiceOptions opt, st
       csv_.emplace_back(path);
       csv_.back() << "interval,time_s,crossed_kg,inserted_kg,remainder_kg,inserted_now,inserted_now_kg,"
                      "setpoint_mean_pa,measured_mean_pa,traction_mean_pa,traction_max_pa,acceleration_max,"
-                     "returned_kg,returned_now_kg,coarse_mass_in_region_kg,fine_mass_in_region_kg\n";
+                     "returned_kg,returned_now_kg,coarse_mass_in_region_kg,fine_mass_in_region_kg,fine_mass_leaving_kg\n";
     }
   }
 }
@@ -186,15 +186,19 @@ void Service::write_final(const std::string& status) const {
   j["regions"] = nlohmann::json::array();
   for (size_t r = 0; r < coupler_.config().regions.size(); ++r) {
     const auto& geo = coupler_.geometry(r);
-    std::string csv = "face,x,y,crossed_kg,inserted_kg,remainder_kg,placed,short_intervals,returned_kg\n";
+    std::string csv = "face,x,y,crossed_kg,inserted_kg,remainder_kg,placed,short_intervals,returned_kg,side,z\n";
     double crossed = 0.0, inserted = 0.0, remainder = 0.0, returned = 0.0, worst = 0.0;
     uint64_t placed = 0;
     const auto& faces = coupler_.planner(r).faces();
     for (size_t f = 0; f < faces.size(); ++f) {
       const auto& s = faces[f];
-      const Vec3 c = geo.cell_centre(geo.cell_of_face(f));
-      csv += fmt::format("{},{:.6g},{:.6g},{:.17g},{:.17g},{:.17g},{},{},{:.17g}\n", f, c.x, c.y, s.crossed,
-                         s.inserted, s.remainder, s.placed, s.short_intervals, s.returned);
+      Vec3 lo, hi;
+      geo.face_slab(f, 0.0, lo, hi);
+      const Vec3 c = 0.5 * (lo + hi);  // the face's centre
+      static constexpr const char* kSide[] = {"top", "-x", "+x", "-y", "+y"};
+      csv += fmt::format("{},{:.6g},{:.6g},{:.17g},{:.17g},{:.17g},{},{},{:.17g},{},{:.6g}\n", f, c.x, c.y, s.crossed,
+                         s.inserted, s.remainder, s.placed, s.short_intervals, s.returned,
+                         kSide[static_cast<int>(geo.side_of_face(f))], c.z);
       crossed += s.crossed;
       returned += s.returned;
       inserted += s.inserted;
@@ -205,7 +209,8 @@ void Service::write_final(const std::string& status) const {
         worst = std::max(worst, std::fabs(s.crossed + s.returned - s.inserted - s.remainder) / std::fabs(s.crossed));
     }
     io::write_file_atomic(opt_.out_dir / "coupling" / fmt::format("faces_region{}.csv", r), csv);
-    j["regions"].push_back({{"cells", geo.cells()}, {"faces", geo.faces()}, {"top", geo.top()},
+    j["regions"].push_back({{"cells", geo.cells()}, {"faces", geo.faces()}, {"side_faces", geo.faces() - geo.top_faces()},
+                            {"top", geo.top()},
                             {"crossed_kg", crossed}, {"inserted_kg", inserted}, {"remainder_kg", remainder},
                             {"returned_kg", returned},
                             {"inserted_particles", placed}, {"worst_face_mass_error", worst}});
@@ -233,9 +238,9 @@ void Service::write_logs() {
     }
     for (const auto& a : lg.acceleration) amax = std::max(amax, norm(a));
     csv_[r] << fmt::format("{},{:.9g},{:.12g},{:.12g},{:.6g},{},{:.9g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.12g},{:.9g},"
-                           "{:.12g},{:.12g}\n",
+                           "{:.12g},{:.12g},{:.12g}\n",
                            k_, t, crossed, inserted, rem, lg.inserted, lg.inserted_mass, sp, pv, tr, tmax, amax, ret,
-                           lg.returned_mass, lg.coarse_mass, lg.fine_mass);
+                           lg.returned_mass, lg.coarse_mass, lg.fine_mass, lg.fine_leaving);
   }
 }
 

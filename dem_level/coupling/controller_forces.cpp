@@ -1,6 +1,7 @@
 #include "coupling/controller_forces.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -19,6 +20,8 @@ ControllerForces::ControllerForces(const bus::CouplingGeometry& geo)
     : geo_(geo), top_(geo.top()), depth_(geo.grid().fade_depth()), wsum_(geo.faces(), 0.0) {
   // The traction acts on the part of a face inside the walls: a face half cut by the cone carries half.
   for (size_t f = 0; f < geo.faces(); ++f) area_.push_back(geo.cell_size() * geo.cell_size() * geo.inside_area(f));
+  for (size_t f = geo.top_faces(); f < geo.faces(); ++f)
+    if (std::find(sides_.begin(), sides_.end(), geo.side_of_face(f)) == sides_.end()) sides_.push_back(geo.side_of_face(f));
 }
 
 void ControllerForces::set_traction(std::vector<double> traction, std::vector<double> speed_limit) {
@@ -72,6 +75,12 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
     sums[nf] += p.radius[i];
     sums[nf + 1] += 1.0;
   }
+  for (size_t i = 0; i < p.n_local() && !sides_.empty(); ++i)
+    for (const bus::Side sd : sides_) {
+      int f = -1;
+      const double w = side_weight(p.x[i], p.radius[i], sd, f);
+      if (f >= 0) sums[static_cast<size_t>(f)] += w;
+    }
   comm.sum_in_place(sums.data(), sums.size());
   // The floor is the weight of a layer at kPhiFloor flush with the boundary: its centres lie one
   // radius or more below the surface, so it weighs phi h^2 (D - r)^2 / (2 D), not phi h^2 D / 2.
@@ -81,13 +90,59 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
   for (size_t f = 0; f < nf; ++f) wsum_[f] = std::max(sums[f], floor * area_[f]);
 }
 
+double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, int& face) const {
+  face = -1;
+  const Vec3 lo = geo_.box_lo(), hi = geo_.box_hi();
+  const double s = side == bus::Side::XLo ? x.x - lo.x : side == bus::Side::XHi ? hi.x - x.x
+                 : side == bus::Side::YLo ? x.y - lo.y : hi.y - x.y;  // depth inside the side
+  if (!(s >= 0.0 && s < depth_)) return 0.0;
+  const int c = geo_.locate(x);
+  if (c < 0) return 0.0;
+  face = geo_.side_face(static_cast<size_t>(c), side);
+  return face < 0 ? 0.0 : sphere_volume(r) * (1.0 - s / depth_);
+}
+
+double ControllerForces::side_distance(const Vec3& x) const {
+  const Vec3 lo = geo_.box_lo(), hi = geo_.box_hi();
+  double d = 1e300;
+  for (const bus::Side sd : sides_)
+    d = std::min(d, sd == bus::Side::XLo ? x.x - lo.x : sd == bus::Side::XHi ? hi.x - x.x
+                  : sd == bus::Side::YLo ? x.y - lo.y : hi.y - x.y);
+  return d;
+}
+
 void ControllerForces::refresh(const Particles& p, double band) {
   near_.clear();
   for (size_t i = 0; i < p.n_local(); ++i) {
     const double s = top_ - p.x[i].z;
-    if (s > -band && s < depth_ + band) near_.push_back(static_cast<uint32_t>(i));
+    const bool near_side = !sides_.empty() && std::fabs(side_distance(p.x[i]) - 0.5 * depth_) < 0.5 * depth_ + band;
+    if ((s > -band && s < depth_ + band) || near_side) near_.push_back(static_cast<uint32_t>(i));
   }
   near_valid_ = true;
+}
+
+Vec3 ControllerForces::limited(const Vec3& F, const Vec3& v, size_t f) const {
+  if (vmax_.empty()) return F;
+  const double v2 = norm2(v), fv = dot(F, v);
+  if (v2 > 0.0 && v2 >= vmax_[f] * vmax_[f] && fv > 0.0) return F - (fv / v2) * v;
+  return F;
+}
+
+void ControllerForces::apply_sides(Particles& p) const {
+  // An open side is pressed like the top: its traction along the inward normal, on the particles
+  // within the fade depth inside it, shared by weight.
+  const size_t m = near_valid_ ? near_.size() : p.n_local();
+  for (size_t q = 0; q < m; ++q) {
+    const size_t i = near_valid_ ? near_[q] : q;
+    for (const bus::Side sd : sides_) {
+      int f = -1;
+      const double w = side_weight(p.x[i], p.radius[i], sd, f);
+      if (f < 0) continue;
+      const auto fs = static_cast<size_t>(f);
+      if (wsum_[fs] <= 0.0 || traction_[fs] == 0.0) continue;
+      p.f[i] += limited((traction_[fs] * area_[fs] * w / wsum_[fs]) * geo_.face_inward(fs), p.v[i], fs);
+    }
+  }
 }
 
 void ControllerForces::apply(Particles& p) const {
@@ -110,6 +165,7 @@ void ControllerForces::apply(Particles& p) const {
       p.f[i] += F;
     }
   }
+  if (traction_on_ && !sides_.empty()) apply_sides(p);
   if (accel_on_) {
     for (size_t i = 0; i < n; ++i) {
       const int c = geo_.locate(p.x[i]);

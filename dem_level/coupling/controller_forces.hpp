@@ -7,7 +7,9 @@
 // s = top - z in [0, D) (D = grid.fade_depth) has the weight w = V (1 - s/D) and
 // gets   F = -z T_f A_f w / W_f,   W_f = sum of the weights over all ranks, taken
 // once at the start of the interval, so that the forces of a cell add up to
-// T_f A_f there (A_f: the face's area inside the walls). A particle at or
+// T_f A_f there (A_f: the face's area inside the walls). An open side face
+// (a region that does not span the vessel) is pressed the same way along its
+// inward normal, with s the depth inside the box's side. A particle at or
 // above vmax_f loses the component of F along its velocity that would make it faster.
 //
 // Coarse role, per active cell c with acceleration a_c: every particle whose
@@ -40,15 +42,21 @@ class ControllerForces {
 
   // Fade weight of a centre x (radius r) and its face; 0 and face -1 outside every faded column.
   double weight(const Vec3& x, double r, int& face) const;
+  // The same below the open side `side` of the box.
+  double side_weight(const Vec3& x, double r, bus::Side side, int& face) const;
   const std::vector<double>& weight_sums() const { return wsum_; }
 
  private:
+  void apply_sides(Particles& p) const;
+  Vec3 limited(const Vec3& F, const Vec3& v, size_t f) const;  // without the part beyond the speed limit
+  double side_distance(const Vec3& x) const;                   // to the nearest open side, inward
   bus::CouplingGeometry geo_;
   double top_ = 0.0, depth_ = 0.0;
   std::vector<double> area_;  // per face: its area inside the walls [m^2]
   std::vector<double> traction_, vmax_, wsum_;
   std::vector<Vec3> accel_;
   bool traction_on_ = false, accel_on_ = false;
+  std::vector<bus::Side> sides_;  // box sides with open faces
   std::vector<uint32_t> near_;  // refresh(): candidates for the traction
   bool near_valid_ = false;
 };

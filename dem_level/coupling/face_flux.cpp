@@ -1,6 +1,7 @@
 #include "coupling/face_flux.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace mlcg::coupling {
 
@@ -15,6 +16,13 @@ FaceFlux::FaceFlux(const bus::CouplingGeometry& geo)
     : geo_(geo), nf_(geo.faces()), edges_(geo.grid().radius_bins().begin(), geo.grid().radius_bins().end()),
       plane_(Vec3{0.0, 0.0, geo.top()}, Vec3{0.0, 0.0, -1.0}) {
   nb_ = edges_.size() >= 2 ? edges_.size() - 1 : 1;
+  const Vec3 lo = geo.box_lo(), hi = geo.box_hi();
+  for (size_t f = geo.top_faces(); f < nf_; ++f) {
+    const bus::Side s = geo.side_of_face(f);
+    if (std::any_of(sides_.begin(), sides_.end(), [&](const SidePlane& p) { return p.side == s; })) continue;
+    const bool low = s == bus::Side::XLo || s == bus::Side::YLo;
+    sides_.push_back({s, PlaneCrossings(low ? lo : hi, geo.face_inward(f))});
+  }
   reset();
 }
 
@@ -30,6 +38,11 @@ void FaceFlux::refresh(const Particles& p, double band) {
   plane_.refresh(p, band, [&](const Vec3& x, double) {
     return x.x >= lo.x - band && x.x <= hi.x + band && x.y >= lo.y - band && x.y <= hi.y + band;
   });
+  for (auto& sp : sides_)
+    sp.plane.refresh(p, band, [&](const Vec3& x, double) {
+      return x.z >= lo.z - band && x.z <= hi.z + band && x.x >= lo.x - band && x.x <= hi.x + band &&
+             x.y >= lo.y - band && x.y <= hi.y + band;
+    });
 }
 
 void FaceFlux::add(size_t f, double m, const Vec3& v, const Vec3& x, double r, int sign) {
@@ -50,12 +63,26 @@ void FaceFlux::check(const Particles& p) {
     if (f < 0) return;
     add(static_cast<size_t>(f), down ? p.mass[i] : -p.mass[i], p.v[i], xc, p.radius[i], down ? 1 : -1);
   });
+  if (!sides_.empty()) check_sides(p);
+}
+
+void FaceFlux::check_sides(const Particles& p) {
+  const double eps = 1e-9 * geo_.cell_size();
+  for (auto& sp : sides_)
+    sp.plane.check(p, [&](size_t i, bool in, double, const Vec3& before) {
+      const Vec3 xc = sp.plane.crossing_point(before, p.x[i]);
+      const int c = geo_.locate(xc + eps * sp.plane.normal());  // the cell just inside
+      if (c < 0) return;
+      const int f = geo_.side_face(static_cast<size_t>(c), sp.side);
+      if (f < 0) return;
+      add(static_cast<size_t>(f), in ? p.mass[i] : -p.mass[i], p.v[i], xc, p.radius[i], in ? 1 : -1);
+    });
 }
 
 void FaceFlux::add_born(const Vec3& x, const Vec3& v, double m, double r) {
-  const Vec3 lo = geo_.box_lo();
-  if (x.x < lo.x || x.y < lo.y || x.z < lo.z || x.z >= geo_.top()) return;
-  const int f = geo_.face_column(x);
+  if (geo_.locate(x) < 0) return;  // counted where the region's mass is counted: in an active cell
+  int f = geo_.face_column(x);
+  if (f < 0) f = geo_.exit_face(x);
   if (f >= 0) add(static_cast<size_t>(f), m, v, x, r, 1);
 }
 

@@ -1,10 +1,11 @@
 #pragma once
 // Coarse role of a coupling grid: the net mass crossing each boundary face
-// (the top faces of the transition cells, in the plane z = top) downward during
-// one coupling interval, with the sums the coupler needs to insert fine
-// particles in its place (paper section 2.3; GridStats face_* fields):
-//   downward crossing:  mass += m, momentum += m v, moment += m x_c, histogram[bin(r)] += 1
-//   upward crossing:    the same subtracted
+// inward during one coupling interval (the top faces of the transition cells,
+// in the plane z = top, and the open side faces in the box's side planes),
+// with the sums the coupler needs to insert fine particles in its place
+// (paper section 2.3; GridStats face_* fields):
+//   inward crossing:   mass += m, momentum += m v, moment += m x_c, histogram[bin(r)] += 1
+//   outward crossing:  the same subtracted
 // x_c is where the centre crossed the plane, v the velocity that carried it
 // there. The crossings are counted like a mass-flow probe's (PlaneCrossings:
 // candidates near the plane, refreshed at every neighbour-list rebuild).
@@ -47,11 +48,17 @@ class FaceFlux {
   std::vector<int64_t> histogram;              // nf x bins, face-major
 
  private:
-  void add(size_t f, double m, const Vec3& v, const Vec3& x, double r, int sign);  // m < 0: upward
+  void add(size_t f, double m, const Vec3& v, const Vec3& x, double r, int sign);  // m < 0: outward
+  void check_sides(const Particles& p);
   bus::CouplingGeometry geo_;
   size_t nf_ = 0, nb_ = 0;
   std::vector<double> edges_;
-  PlaneCrossings plane_;
+  PlaneCrossings plane_;  // the top
+  struct SidePlane {
+    bus::Side side;
+    PlaneCrossings plane;  // normal pointing into the box
+  };
+  std::vector<SidePlane> sides_;  // only the box sides that have open faces
 };
 
 }  // namespace mlcg::coupling

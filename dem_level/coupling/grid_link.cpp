@@ -1,5 +1,6 @@
 #include "coupling/grid_link.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -12,6 +13,9 @@ const char* to_string(Role r) { return r == Role::Coarse ? "coarse" : "fine"; }
 GridLink::GridLink(uint32_t index, const bus::CouplingGrid& grid, Role role)
     : index_(index), role_(role), geo_(grid), top_(geo_.top()), lo_(geo_.box_lo()), hi_(geo_.box_hi()), flux_(geo_),
       cells_(geo_), forces_(geo_), returned_(geo_.faces(), 0.0) {
+  for (size_t f = geo_.top_faces(); f < geo_.faces(); ++f)
+    if (std::find(open_sides_.begin(), open_sides_.end(), geo_.side_of_face(f)) == open_sides_.end())
+      open_sides_.push_back(geo_.side_of_face(f));
   if (role == Role::Coarse && grid.radius_bins_size() < 2)
     throw std::invalid_argument("grid " + std::to_string(index) + ": radius_bins has " +
                                 std::to_string(grid.radius_bins_size()) +
@@ -93,13 +97,25 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
   g.mutable_cell_velocity()->Assign(m.velocity.begin(), m.velocity.end());
   g.mutable_cell_max_speed()->Assign(m.max_speed.begin(), m.max_speed.end());
   if (role_ == Role::Fine && want_occupants_) {
-    // Occupants of the insertion slabs: centres within r_max of the slabs below the boundary surface.
-    const double zlo = top_ - geo_.grid().insert_depth() - r_max, zhi = top_ + r_max;
+    // Occupants of the insertion slabs: centres within r_max of the slabs inside the boundary surface.
+    const double depth = geo_.grid().insert_depth(), zlo = top_ - depth - r_max, zhi = top_ + r_max;
+    const auto near_open_side = [&](const Vec3& x) {
+      if (x.z < lo_.z - r_max || x.z > zhi || x.x < lo_.x - r_max || x.x > hi_.x + r_max || x.y < lo_.y - r_max ||
+          x.y > hi_.y + r_max)
+        return false;
+      for (const bus::Side s : open_sides_) {
+        const double d = s == bus::Side::XLo ? x.x - lo_.x : s == bus::Side::XHi ? hi_.x - x.x
+                       : s == bus::Side::YLo ? x.y - lo_.y : hi_.y - x.y;  // inward from the side
+        if (d >= -r_max && d <= depth + r_max) return true;
+      }
+      return false;
+    };
     std::vector<char> buf;
     ByteWriter w(buf);
     for (size_t i = 0; i < p.n_local(); ++i) {
       const Vec3& x = p.x[i];
-      if (x.z < zlo || x.z > zhi || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y) continue;
+      const bool below_top = !(x.z < zlo || x.z > zhi || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y);
+      if (!below_top && !(open_sides_.size() && near_open_side(x))) continue;
       const double q[4] = {x.x, x.y, x.z, p.radius[i]};
       w.put_n(q, 4);
     }
@@ -109,10 +125,14 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
     g.set_occupants_sent(true);
   }
   {  // both roles: the mass in the region, independent of the crossing counts (a mass check)
-    double m = 0.0;
-    for (size_t i = 0; i < p.n_local(); ++i)
-      if (geo_.locate(p.x[i]) >= 0) m += p.mass[i];
-    g.set_mass_in_region(comm.sum(m));
+    double m[2] = {0.0, 0.0};  // in the region; out of it and due for removal at the next rebuild
+    for (size_t i = 0; i < p.n_local(); ++i) {
+      if (geo_.locate(p.x[i]) >= 0) m[0] += p.mass[i];
+      else if (leaves(p.x[i])) m[1] += p.mass[i];
+    }
+    comm.sum_in_place(m, 2);
+    g.set_mass_in_region(m[0]);
+    g.set_mass_leaving(m[1]);
   }
   if (role_ == Role::Fine) {
     returned_.resize(geo_.faces(), 0.0);

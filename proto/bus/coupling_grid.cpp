@@ -24,6 +24,25 @@ CouplingGeometry::CouplingGeometry(const CouplingGrid& g) : g_(g) {
     face_of_cell_.push_back(top_layer ? static_cast<int>(faces_.size()) : -1);
     if (top_layer) faces_.push_back(cells_.size() - 1);
   }
+  top_faces_ = faces_.size();
+  side_.assign(top_faces_, Side::Top);
+  side_lookup_.assign(4 * cells_.size(), -1);
+  for (int k = 0; k < g.side_faces_size(); ++k) {
+    const uint32_t code = g.side_faces(k), c = code / 4, d = code % 4;
+    if (c >= cells_.size())
+      throw std::invalid_argument("coupling grid: side face " + std::to_string(code) + " names cell " +
+                                  std::to_string(c) + " of " + std::to_string(cells_.size()));
+    if (k > 0 && code <= g.side_faces(k - 1))
+      throw std::invalid_argument("coupling grid: side faces not strictly ascending");
+    const uint32_t f = cells_[c], i = f % g.nx(), j = (f / g.nx()) % g.ny();
+    const bool on_box = d == 0 ? i == 0 : d == 1 ? i == g.nx() - 1 : d == 2 ? j == 0 : j == g.ny() - 1;
+    if (!on_box)
+      throw std::invalid_argument("coupling grid: side face " + std::to_string(code) +
+                                  " is not on the side of the box");
+    side_lookup_[code] = static_cast<int>(faces_.size());
+    faces_.push_back(c);
+    side_.push_back(static_cast<Side>(d + 1));
+  }
   const auto fractions = [](const auto& a, size_t want, const char* what) {
     if (a.size() != 0 && static_cast<size_t>(a.size()) != want)
       throw std::invalid_argument(std::string("coupling grid: ") + what + " has " + std::to_string(a.size()) +
@@ -62,6 +81,37 @@ int CouplingGeometry::locate(const Vec3& x) const {
   return lookup_[i + g_.nx() * (j + g_.ny() * k)];
 }
 
+Vec3 CouplingGeometry::face_inward(size_t f) const {
+  switch (side_[f]) {
+    case Side::XLo: return {1.0, 0.0, 0.0};
+    case Side::XHi: return {-1.0, 0.0, 0.0};
+    case Side::YLo: return {0.0, 1.0, 0.0};
+    case Side::YHi: return {0.0, -1.0, 0.0};
+    default: return {0.0, 0.0, -1.0};
+  }
+}
+
+void CouplingGeometry::face_slab(size_t f, double depth, Vec3& lo, Vec3& hi) const {
+  const double h = g_.cell_size();
+  lo = cell_lo(faces_[f]);
+  hi = lo + Vec3{h, h, h};
+  switch (side_[f]) {
+    case Side::Top:
+      hi.z = top();  // the very same number as the boundary surface's height
+      lo.z = hi.z - depth;
+      break;
+    case Side::XLo: hi.x = lo.x + depth; break;
+    case Side::XHi: lo.x = hi.x - depth; break;
+    case Side::YLo: hi.y = lo.y + depth; break;
+    case Side::YHi: lo.y = hi.y - depth; break;
+  }
+}
+
+int CouplingGeometry::side_face(size_t c, Side s) const {
+  if (s == Side::Top) return face_of_cell_[c];
+  return side_lookup_[4 * c + static_cast<size_t>(s) - 1];
+}
+
 int CouplingGeometry::face_column(const Vec3& x) const {
   const double h = g_.cell_size();
   const int c = locate({x.x, x.y, top() - 0.5 * h});
@@ -73,15 +123,31 @@ int CouplingGeometry::face_column(const Vec3& x) const {
 namespace mlcg::bus {
 
 int CouplingGeometry::exit_face(const Vec3& x) const {
-  const int f = face_column(x);
-  if (f >= 0 || faces_.empty()) return f;
-  const double h = g_.cell_size(), z = top();
-  int best = -1;
+  if (faces_.empty()) return -1;
+  // By the side it is furthest beyond: above the top, its column's face; beside the box, the side
+  // face of the cell next to it.
+  const Vec3 lo = box_lo(), hi = box_hi();
+  const double ex = std::max({lo.x - x.x, x.x - hi.x, 0.0}), ey = std::max({lo.y - x.y, x.y - hi.y, 0.0}),
+               ez = std::max(x.z - top(), 0.0);
+  if (ez > 0.0 && ez >= ex && ez >= ey) {
+    const int f = face_column(x);
+    if (f >= 0) return f;
+  } else if (ex > 0.0 || ey > 0.0) {
+    const double eps = 1e-9 * g_.cell_size();
+    const Vec3 in{std::clamp(x.x, lo.x + eps, hi.x - eps), std::clamp(x.y, lo.y + eps, hi.y - eps),
+                  std::clamp(x.z, lo.z + eps, top() - eps)};
+    const int c = locate(in);
+    const Side s = ex >= ey ? (x.x < lo.x ? Side::XLo : Side::XHi) : (x.y < lo.y ? Side::YLo : Side::YHi);
+    if (c >= 0 && side_face(static_cast<size_t>(c), s) >= 0) return side_face(static_cast<size_t>(c), s);
+  }
+  int best = -1;  // otherwise the nearest face (rare): brute force
   double best_d2 = 0.0;
-  for (size_t q = 0; q < faces_.size(); ++q) {  // rare (a particle beside the faces): brute force
-    const Vec3 lo = cell_lo(faces_[q]);
-    const double dx = std::max({lo.x - x.x, 0.0, x.x - lo.x - h}), dy = std::max({lo.y - x.y, 0.0, x.y - lo.y - h});
-    const double d2 = dx * dx + dy * dy + (x.z - z) * (x.z - z);
+  for (size_t q = 0; q < faces_.size(); ++q) {
+    Vec3 a, b;
+    face_slab(q, 0.0, a, b);
+    const double dx = std::max({a.x - x.x, 0.0, x.x - b.x}), dy = std::max({a.y - x.y, 0.0, x.y - b.y}),
+                 dz = std::max({a.z - x.z, 0.0, x.z - b.z});
+    const double d2 = dx * dx + dy * dy + dz * dz;
     if (best < 0 || d2 < best_d2) {
       best = static_cast<int>(q);
       best_d2 = d2;

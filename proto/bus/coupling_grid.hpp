@@ -3,8 +3,11 @@
 // cells on a box, of which the active ones (clipped to the geometry) take
 // part. Layer k = nz - 1 is the transition layer; each of its active cells has
 // one boundary face, its top face; the active cells below are correction
-// cells. Faces are numbered in the order of the transition cells; per-cell
-// arrays follow `cells` (ascending flat index i + nx (j + ny k)).
+// cells. Where the geometry goes on beside the box (a region that does not
+// span the vessel) the box's sides are boundary faces too (side_faces): mass
+// crosses them both ways like the top. Faces are numbered: the top faces in
+// the order of the transition cells, then the side faces; per-cell arrays
+// follow `cells` (ascending flat index i + nx (j + ny k)).
 #include <cstdint>
 #include <vector>
 
@@ -12,6 +15,9 @@
 #include "mlcg/bus.pb.h"
 
 namespace mlcg::bus {
+
+// Which face of a cell a boundary face is; the inward normal of each is -z, +x, -x, +y, -y.
+enum class Side : uint8_t { Top = 0, XLo = 1, XHi = 2, YLo = 3, YHi = 4 };
 
 class CouplingGeometry {
  public:
@@ -23,6 +29,14 @@ class CouplingGeometry {
   double cell_size() const { return g_.cell_size(); }
   size_t cells() const { return cells_.size(); }
   size_t faces() const { return faces_.size(); }
+  size_t top_faces() const { return top_faces_; }  // faces [0, top_faces()) are top faces
+  Side side_of_face(size_t f) const { return side_[f]; }
+  bool is_top(size_t f) const { return f < top_faces_; }
+  Vec3 face_inward(size_t f) const;  // unit normal into the region
+  // The box of points within `depth` inside face f (the face's square times depth along its normal).
+  void face_slab(size_t f, double depth, Vec3& lo, Vec3& hi) const;
+  // Boundary face on side s of active cell c, or -1.
+  int side_face(size_t c, Side s) const;
   uint32_t flat(size_t c) const { return cells_[c]; }
   bool is_transition(size_t c) const { return face_of_cell_[c] >= 0; }
   int face_of_cell(size_t c) const { return face_of_cell_[c]; }
@@ -52,7 +66,10 @@ class CouplingGeometry {
   CouplingGrid g_;
   std::vector<uint32_t> cells_;
   std::vector<int> face_of_cell_;
-  std::vector<size_t> faces_;
+  std::vector<size_t> faces_;  // cell of each face
+  std::vector<Side> side_;     // side of each face
+  size_t top_faces_ = 0;
+  std::vector<int> side_lookup_;  // 4 per active cell: its side faces (XLo, XHi, YLo, YHi) or -1
   std::vector<int> lookup_;  // flat index -> active cell or -1
 };
 
