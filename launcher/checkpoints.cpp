@@ -3,6 +3,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "io/atomic_file.hpp"
@@ -65,6 +66,13 @@ nlohmann::json read_json_or_null(const fs::path& p) {
   } catch (const std::exception&) {
     return nullptr;
   }
+}
+
+std::string probe_flow_text(const nlohmann::json& probe) {
+  const auto ci = probe.find("ci95_kg_per_s");
+  return fmt::format("mass flow {:.4f} +- {:.4f} kg/s, mean's 95 % CI +- {}", probe.value("mean_kg_per_s", 0.0),
+                     probe.value("std_kg_per_s", 0.0),
+                     ci != probe.end() && ci->is_number() ? fmt::format("{:.4f} kg/s", ci->get<double>()) : "n/a");
 }
 
 }  // namespace mlcg::launcher

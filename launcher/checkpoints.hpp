@@ -34,4 +34,8 @@ RunInfo read_run_info(const std::filesystem::path& run_dir);
 // A JSON file of the run folder, or null when it is missing or unreadable (being replaced, not yet written).
 nlohmann::json read_json_or_null(const std::filesystem::path& p);
 
+// "mass flow M +- S kg/s, mean's 95 % CI +- H kg/s" for a summary.json probe entry; "n/a" for a
+// run written before the CI was recorded.
+std::string probe_flow_text(const nlohmann::json& probe);
+
 }  // namespace mlcg::launcher

@@ -136,8 +136,8 @@ void print_end(const fs::path& run_dir, const Outcome& r) {
                   g.value("inserted_particles", 0ULL), g.value("inserted_kg", 0.0), g.value("crossed_kg", 0.0),
                   g.value("remainder_kg", 0.0), 100.0 * s["coupling"].value("overhead_share", 0.0));
   for (const auto& p : s["probes"])
-    std::printf("probe %s (level %s): mass flow %.4f +- %.4f kg/s\n", p.value("name", "?").c_str(),
-                s.value("probes_from_level", "?").c_str(), p.value("mean_kg_per_s", 0.0), p.value("std_kg_per_s", 0.0));
+    std::printf("probe %s (level %s): %s\n", p.value("name", "?").c_str(), s.value("probes_from_level", "?").c_str(),
+                probe_flow_text(p).c_str());
   if (r.exit_code == 0) return;
   if (!r.failed.empty()) std::fprintf(stderr, "mlcg: %s; every other process was stopped\n", r.failed.c_str());
   if (s.contains("checkpoint"))

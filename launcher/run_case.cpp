@@ -49,8 +49,8 @@ void print_summary(const fs::path& run_dir) {
                 l.value("name", "?").c_str(), l.value("alpha", 0.0), l.value("dt", 0.0), l.value("ranks", 1),
                 l.value("particles_max", 0), l.value("particle_steps_per_second", 0.0));
   for (const auto& p : j["probes"])
-    std::printf("probe %s: mass flow %.4f +- %.4f kg/s (%d samples in window)\n", p.value("name", "?").c_str(),
-                p.value("mean_kg_per_s", 0.0), p.value("std_kg_per_s", 0.0), p.value("samples_in_window", 0));
+    std::printf("probe %s: %s (%d samples in window)\n", p.value("name", "?").c_str(), probe_flow_text(p).c_str(),
+                p.value("samples_in_window", 0));
   const auto& b = j["mass_balance"];
   std::printf("particles: %lld inserted = %lld present + %lld removed; %lld failed to place\n",
               b.value("inserted", 0LL), b.value("present", 0LL), b.value("removed", 0LL),

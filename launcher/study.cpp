@@ -59,7 +59,8 @@ void print_plan(const StudySpec& s, const std::vector<std::string>& why) {
   for (size_t i = 0; i < s.variants.size(); ++i) {
     const auto& v = s.variants[i];
     const std::string action = v.pointed ? "given run, used as it is" : why[i].empty() ? "reuse" : "run: " + why[i];
-    fmt::print("  {:<16} {:<28} {} -> {} [{}]\n", v.name, v.label, v.case_file.empty() ? "(no case)" : v.case_file,
+    const std::string name = v.replica ? fmt::format("{} r{}/{}", v.name, v.replica, v.replicas) : v.name;
+    fmt::print("  {:<16} {:<28} {} -> {} [{}]\n", name, v.label, v.case_file.empty() ? "(no case)" : v.case_file,
                v.run.string(), action);
   }
   std::fflush(stdout);
@@ -111,7 +112,8 @@ int run_study(const StudyOptions& o) {
                      v.name.c_str(), v.run.c_str(), v.case_file.c_str());
       if (!why[i].empty()) {
         clear_run_folder(v.run);
-        std::printf("\nmlcg study: running '%s' (%s)\n", v.name.c_str(), why[i].c_str());
+        const std::string rep = v.replica ? fmt::format(" replica {}/{}, seed {}", v.replica, v.replicas, v.seed) : "";
+        std::printf("\nmlcg study: running '%s'%s (%s)\n", v.name.c_str(), rep.c_str(), why[i].c_str());
         std::fflush(stdout);
         const int rc = run_case(v.case_file, v.run.string(), o.quiet);
         if (rc != 0) {
@@ -123,15 +125,14 @@ int run_study(const StudyOptions& o) {
       rows.push_back(measure_run(v, s.probe));
       rows.back().reused = why[i].empty();
     }
+    rows = combine_replicas(std::move(rows));
     write_study_report(s, rows);
   } catch (const StudyError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
   std::printf("\n== study %s ==\n", s.folder.c_str());
-  for (const auto& r : rows)
-    std::printf("%-16s %9.4f +- %.4f kg/s  error %+6.1f %%  wall %8.1f s  speedup %.2f%s\n", r.v->name.c_str(),
-                r.mdot, r.sigma, r.error_pct, r.wall, r.speedup_wall, r.reused ? "  (reused)" : "");
+  for (const auto& r : rows) fmt::print("{}\n", console_line(r));
   std::printf("files: %s/{study.csv, study.md, study.json, *.png}\n", s.folder.c_str());
   std::fflush(stdout);
   if (o.plots) make_plots(s.folder);

@@ -1,6 +1,7 @@
 #include "study_file.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <fstream>
 #include <optional>
 #include <set>
@@ -152,10 +153,31 @@ void absolutize_files(toml::table& doc, const fs::path& base_dir) {
 void add_case(const Reader& r, int line, const std::string& key, Variant& v) {
   v.case_text = read_text(v.case_file);
   try {
-    config::parse_case(v.case_text, v.case_file);
+    v.seed = config::parse_case(v.case_text, v.case_file).seed;
   } catch (const config::CaseError& e) {
     r.fail(line, key, std::string("the case is refused: ") + e.what());
   }
+}
+
+// The base case of derived ones, its relative files made absolute; a syntax error is the study's, at `line`.
+toml::table read_base(const Reader& r, int line, const std::string& key, const fs::path& base) {
+  toml::table doc;
+  try {
+    doc = toml::parse_file(base.string());
+  } catch (const toml::parse_error& e) {
+    r.fail(line, key, fmt::format("{}:{}: TOML syntax error: {}", base.string(), e.source().begin.line, e.description()));
+  }
+  absolutize_files(doc, fs::absolute(base).parent_path());
+  return doc;
+}
+
+// A derived case's text says where it comes from, so a user opening cases/ knows.
+std::string derived_text(const fs::path& base, const std::string& change, const toml::table& doc) {
+  std::ostringstream ss;
+  ss << "# derived by `mlcg study` from " << fs::absolute(base).lexically_normal().string() << " with " << change
+     << "\n\n"
+     << doc << "\n";
+  return ss.str();
 }
 
 void add_sweep(const Reader& r, const toml::table& t, const std::string& path, const fs::path& study_dir,
@@ -176,14 +198,7 @@ void add_sweep(const Reader& r, const toml::table& t, const std::string& path, c
   if (!values || values->empty())
     r.fail(t.get("values") ? line_of(*t.get("values")) : line_of(t), path + ".values",
            "required: a non-empty array of the values the key takes");
-  toml::table doc;
-  try {
-    doc = toml::parse_file(base.string());
-  } catch (const toml::parse_error& e) {
-    r.fail(line_of(*t.get("base")), path + ".base",
-           fmt::format("{}:{}: TOML syntax error: {}", base.string(), e.source().begin.line, e.description()));
-  }
-  absolutize_files(doc, fs::absolute(base).parent_path());
+  const toml::table doc = read_base(r, line_of(*t.get("base")), path + ".base", base);
   const int key_line = line_of(*t.get("key"));
   for (size_t i = 0; i < values->size(); ++i) {
     Variant v;
@@ -202,18 +217,100 @@ void add_sweep(const Reader& r, const toml::table& t, const std::string& path, c
     } catch (const std::string& what) {
       r.fail(key_line, path + ".key", "'" + key + "': " + what);
     }
-    std::ostringstream ss;
-    ss << "# derived by `mlcg study` from " << fs::absolute(base).lexically_normal().string() << " with " << key
-       << " = " << v.sweep_value << "\n\n"
-       << d << "\n";
-    v.case_text = ss.str();
+    v.case_text = derived_text(base, key + " = " + v.sweep_value, d);
     try {
-      config::parse_case(v.case_text, v.case_file);
+      v.seed = config::parse_case(v.case_text, v.case_file).seed;
     } catch (const config::CaseError& e) {
       r.fail(key_line, path + ".key",
              fmt::format("'{}' = {} gives a case the case parser refuses: {}", key, v.sweep_value, e.what()));
     }
     out.push_back(std::move(v));
+  }
+}
+
+// `replicas`: absent = 1; a whole number 1..kMaxReplicas, only with a `case` to run.
+int read_replicas(const Reader& r, const toml::table& t, const std::string& path) {
+  const toml::node* n = t.get("replicas");
+  if (!n) return 1;
+  const std::string key = path + ".replicas";
+  const std::string allowed = fmt::format("; allowed 1..{} (runs of the variant, seeds seed, seed + 1, ...)",
+                                          kMaxReplicas);
+  const auto i = n->value_exact<int64_t>();
+  if (!i)
+    r.fail(line_of(*n), key,
+           (n->is_number() ? value_text(*n) + " is not a whole number" : "'" + value_text(*n) + "' is not a number") +
+               allowed);
+  if (*i < 1 || *i > kMaxReplicas) r.fail(line_of(*n), key, std::to_string(*i) + " is out of range" + allowed);
+  if (!t.get("case") || t.get("run"))
+    r.fail(line_of(*n), key, "needs `case` and no `run`: a given run is used as it is, never run again");
+  return static_cast<int>(*i);
+}
+
+// The runs of a variant with `replicas = N` (N >= 2): its case with seed = base seed + k - 1, derived
+// into <study folder>/cases/<name>-r<k>.toml and run into <study folder>/<name>-r<k>/.
+void add_replicas(const Reader& r, int line, const std::string& key, const Variant& v, int n,
+                  const fs::path& folder, std::vector<Variant>& out) {
+  if (v.seed > static_cast<uint64_t>(INT64_MAX - kMaxReplicas))
+    r.fail(line, key, fmt::format("the case's seed {} leaves no room for {} seeds", v.seed, n));
+  const toml::table doc = read_base(r, line, key, v.case_file);
+  for (int k = 1; k <= n; ++k) {
+    Variant rep = v;
+    rep.replica = k;
+    rep.replicas = n;
+    rep.derived = true;
+    rep.seed = v.seed + static_cast<uint64_t>(k - 1);
+    const std::string stem = fmt::format("{}-r{}", v.name, k);
+    rep.case_file = (folder / "cases" / (stem + ".toml")).string();
+    rep.run = folder / stem;
+    toml::table d = doc;
+    d.insert_or_assign("seed", static_cast<int64_t>(rep.seed));
+    rep.case_text = derived_text(v.case_file, fmt::format("seed = {} (replica {} of {})", rep.seed, k, n), d);
+    try {
+      config::parse_case(rep.case_text, rep.case_file);
+    } catch (const config::CaseError& e) {
+      r.fail(line, key, fmt::format("replica {} (seed {}) gives a case the case parser refuses: {}", k, rep.seed, e.what()));
+    }
+    out.push_back(std::move(rep));
+  }
+}
+
+// One [[variants]] entry: a case to run (once, or once per replica) or an earlier run folder.
+void add_variant(const Reader& r, const toml::table& t, const std::string& path, const fs::path& study_dir,
+                 const fs::path& folder, std::vector<Variant>& out) {
+  r.allow(t, path, {"name", "case", "run", "label", "replicas"});
+  Variant v;
+  v.name = r.required(t, path + ".", "name", "the variant's name (its run folder's name)");
+  check_name(r, line_of(t), path + ".name", v.name);
+  v.label = r.str(t, path + ".", "label").value_or(v.name);
+  v.where = fmt::format("{}:{}", r.file, line_of(t));
+  const auto c = r.str(t, path + ".", "case");
+  const auto run = r.str(t, path + ".", "run");
+  if (!c && !run) r.fail(line_of(t), path, "give `case` (a case file to run) or `run` (an earlier run folder)");
+  v.run = run ? fs::path(*run) : folder / v.name;
+  v.pointed = run.has_value();
+  if (v.pointed && !fs::is_regular_file(v.run / "summary.json"))
+    r.fail(line_of(*t.get("run")), path + ".run", "no summary.json in " + v.run.string() + "; give a run folder");
+  if (c) {
+    v.case_file = (study_dir / *c).string();
+    if (!fs::is_regular_file(v.case_file))
+      r.fail(line_of(*t.get("case")), path + ".case", "file not found: " + v.case_file);
+    add_case(r, line_of(*t.get("case")), path + ".case", v);
+  }
+  if (const int n = read_replicas(r, t, path); n > 1)
+    add_replicas(r, line_of(*t.get("replicas")), path + ".replicas", v, n, folder, out);
+  else
+    out.push_back(std::move(v));
+}
+
+// Names name one row each (a variant's replicas share its name), run folders one run each.
+void check_unique(const StudySpec& s) {
+  std::set<std::string> seen;
+  std::set<fs::path> runs;
+  for (const auto& v : s.variants) {
+    if (v.replica <= 1 && !seen.insert(v.name).second) throw StudyError(v.where + ": name: '" + v.name + "' is used twice");
+    if (!runs.insert(fs::absolute(v.run).lexically_normal()).second)
+      throw StudyError(fmt::format("{}: variant '{}': its run folder {} is another variant's too; rename one",
+                                   v.where, v.name, v.run.string()));
   }
 }
 
@@ -296,30 +393,8 @@ StudySpec load_study(const fs::path& case_dir, const std::string& study_file, bo
   if (const auto* n = doc.get("variants"); n && !n->is_array_of_tables())
     r.fail(line_of(*n), "variants", "expected [[variants]] entries");
   if (const auto* vs = doc.get_as<toml::array>("variants")) {
-    for (size_t i = 0; i < vs->size(); ++i) {
-      const auto& t = *vs->get(i)->as_table();
-      const std::string path = fmt::format("variants[{}]", i);
-      r.allow(t, path, {"name", "case", "run", "label"});
-      Variant v;
-      v.name = r.required(t, path + ".", "name", "the variant's name (its run folder's name)");
-      check_name(r, line_of(t), path + ".name", v.name);
-      v.label = r.str(t, path + ".", "label").value_or(v.name);
-      v.where = fmt::format("{}:{}", study_file, line_of(t));
-      const auto c = r.str(t, path + ".", "case");
-      const auto run = r.str(t, path + ".", "run");
-      if (!c && !run) r.fail(line_of(t), path, "give `case` (a case file to run) or `run` (an earlier run folder)");
-      v.run = run ? fs::path(*run) : s.folder / v.name;
-      v.pointed = run.has_value();
-      if (v.pointed && !fs::is_regular_file(v.run / "summary.json"))
-        r.fail(line_of(*t.get("run")), path + ".run", "no summary.json in " + v.run.string() + "; give a run folder");
-      if (c) {
-        v.case_file = (study_dir / *c).string();
-        if (!fs::is_regular_file(v.case_file))
-          r.fail(line_of(*t.get("case")), path + ".case", "file not found: " + v.case_file);
-        add_case(r, line_of(*t.get("case")), path + ".case", v);
-      }
-      s.variants.push_back(std::move(v));
-    }
+    for (size_t i = 0; i < vs->size(); ++i)
+      add_variant(r, *vs->get(i)->as_table(), fmt::format("variants[{}]", i), study_dir, s.folder, s.variants);
   }
   if (const auto* n = doc.get("sweep")) {
     if (const auto* t = n->as_table()) {
@@ -333,14 +408,12 @@ StudySpec load_study(const fs::path& case_dir, const std::string& study_file, bo
     }
   }
   if (s.variants.empty()) r.fail(1, "variants", "the study lists no variant; give [[variants]] or a [sweep]");
-  std::set<std::string> seen;
-  for (const auto& v : s.variants)
-    if (!seen.insert(v.name).second) throw StudyError(v.where + ": name: '" + v.name + "' is used twice");
+  check_unique(s);
   s.reference = r.str(doc, "", "reference").value_or(s.variants.front().name);
-  auto ref = std::find_if(s.variants.begin(), s.variants.end(), [&](const Variant& v) { return v.name == s.reference; });
-  if (ref == s.variants.end())
+  if (std::none_of(s.variants.begin(), s.variants.end(), [&](const Variant& v) { return v.name == s.reference; }))
     r.fail(line_of(*doc.get("reference")), "reference", "no variant is named '" + s.reference + "'");
-  std::rotate(s.variants.begin(), ref, ref + 1);
+  // The reference's runs (all its replicas) first, the others in the file's order.
+  std::stable_partition(s.variants.begin(), s.variants.end(), [&](const Variant& v) { return v.name == s.reference; });
   check_probes(s);
   return s;
 }

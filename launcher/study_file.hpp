@@ -3,6 +3,7 @@
 // variants to compare and the sweeps that derive more of them from one case by
 // setting one key. Everything is checked before anything runs; every error is
 // a StudyError reading "FILE:LINE: KEY: what is wrong; what is allowed".
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -26,7 +27,14 @@ struct Variant {
   std::string sweep_key;    // the swept key and this variant's value, as written in the study file
   std::string sweep_value;
   std::string where;        // "FILE:LINE" of its entry, for messages
+  uint64_t seed = 0;        // the case's seed
+  // `replicas = N` (N >= 2) runs the variant N times with seeds seed, seed + 1, ...: one Variant per
+  // run, all with the entry's name (one row of the table), replica 1..N; a derived case each.
+  int replica = 0;          // 0 = not a replica
+  int replicas = 1;
 };
+
+inline constexpr int kMaxReplicas = 20;
 
 struct StudySpec {
   std::string file;                 // the study file ("" = the default variants of the case folder)
@@ -34,7 +42,7 @@ struct StudySpec {
   std::filesystem::path folder;     // the study folder
   std::string reference;            // name of the reference variant
   std::string probe;                // probe compared ("" = each run's first probe)
-  std::vector<Variant> variants;    // the reference first
+  std::vector<Variant> variants;    // one per run; the reference's first
 };
 
 // Reads `study_file` (when it exists or was given explicitly) or falls back to

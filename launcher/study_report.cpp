@@ -1,11 +1,13 @@
 #include "study_report.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include <fmt/format.h>
 
 #include "config/case_parser.hpp"
 #include "io/atomic_file.hpp"
+#include "measure/series_stats.hpp"
 
 namespace fs = std::filesystem;
 
@@ -49,7 +51,77 @@ StudyRow measure_run(const Variant& v, const std::string& probe) {
   r.probe = p->value("name", "");
   r.mdot = p->value("mean_kg_per_s", 0.0);
   r.sigma = p->value("std_kg_per_s", 0.0);
+  // Runs written before the interval was recorded have no ci95_kg_per_s: NaN, shown as n/a.
+  if (const auto ci = p->find("ci95_kg_per_s"); ci != p->end() && ci->is_number()) r.ci95 = ci->get<double>();
+  r.ci_method = p->value("ci_method", "");
+  r.runs = {{v.run, v.seed, r.mdot, r.ci95}};
   return r;
+}
+
+namespace {
+
+StudyRow combine(const std::vector<StudyRow>& runs, size_t first, size_t last) {
+  StudyRow r = runs[first];  // label, levels, probe, data_dir: the first replica's
+  const size_t n = last - first;
+  double mdot = 0.0, sigma = 0.0, wall = 0.0, cpu = 0.0, steps = 0.0, particles = 0.0;
+  r.runs.clear();
+  for (size_t k = first; k < last; ++k) {
+    const StudyRow& q = runs[k];
+    mdot += q.mdot;
+    sigma += q.sigma;
+    wall += q.wall;
+    cpu += q.cpu;
+    steps += q.particle_steps;
+    particles += static_cast<double>(q.particles);
+    r.reused = r.reused && q.reused;
+    r.cpu_measured = r.cpu_measured && q.cpu_measured;
+    r.runs.push_back(q.runs.front());
+  }
+  const double nd = static_cast<double>(n);
+  r.replicas = static_cast<int>(n);
+  r.mdot = mdot / nd;
+  r.sigma = sigma / nd;
+  r.wall = wall / nd;
+  r.cpu = cpu / nd;
+  r.particle_steps = steps / nd;
+  r.particles = std::llround(particles / nd);
+  double ss = 0.0;
+  for (const auto& q : r.runs) ss += (q.mdot - r.mdot) * (q.mdot - r.mdot);
+  r.spread = std::sqrt(ss / (nd - 1.0));
+  // The replica means are independent: a plain t interval (the runs' own intervals are not needed).
+  r.ci95 = stats::student_t_quantile(0.975, static_cast<long>(n) - 1) * r.spread / std::sqrt(nd);
+  r.ci_method = fmt::format("t interval of {} replica means", n);
+  return r;
+}
+
+}  // namespace
+
+std::vector<StudyRow> combine_replicas(std::vector<StudyRow> runs) {
+  std::vector<StudyRow> rows;
+  for (size_t i = 0; i < runs.size();) {
+    size_t j = i + 1;
+    if (runs[i].v->replica > 0)
+      while (j < runs.size() && runs[j].v->replica > 0 && runs[j].v->name == runs[i].v->name) ++j;
+    rows.push_back(j - i > 1 ? combine(runs, i, j) : runs[i]);
+    i = j;
+  }
+  return rows;
+}
+
+namespace {
+// "n/a" for an interval a run did not record.
+std::string fixed(double x, int digits) { return std::isfinite(x) ? fmt::format("{:.{}f}", x, digits) : "n/a"; }
+// An empty csv cell for it.
+std::string csv_number(double x) { return std::isfinite(x) ? fmt::format("{:.9g}", x) : ""; }
+nlohmann::json json_number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(); }
+}  // namespace
+
+std::string console_line(const StudyRow& r) {
+  return fmt::format("{:<16} {:9.4f} +- {} kg/s (95 % CI)  error {:+6.1f} +- {} %  wall {:8.1f} s  speedup {:.2f}{}{}",
+                     r.v->name, r.mdot, fixed(r.ci95, 4), r.error_pct, fixed(r.error_ci_pct, 1), r.wall,
+                     r.speedup_wall,
+                     r.replicas > 1 ? fmt::format("  ({} replicas, spread {:.4f})", r.replicas, r.spread) : "",
+                     r.reused ? "  (reused)" : "");
 }
 
 namespace {
@@ -96,16 +168,31 @@ nlohmann::json pressure_layer(const StudySpec& s, const std::vector<StudyRow>& r
 
 void write_csv(const StudySpec& s, const std::vector<StudyRow>& rows) {
   std::string out =
-      "name,label,sweep_key,sweep_value,run,reused,levels,particles,probe,mdot_kg_per_s,sigma_kg_per_s,error_pct,"
-      "wall_s,cpu_s,particle_steps,particle_steps_per_s,speedup_wall,speedup_cpu,particle_step_ratio\n";
+      "name,label,sweep_key,sweep_value,run,reused,levels,particles,probe,mdot_kg_per_s,ci95_kg_per_s,sigma_kg_per_s,"
+      "replicas,spread_kg_per_s,error_pct,error_ci_pct,wall_s,cpu_s,particle_steps,particle_steps_per_s,speedup_wall,"
+      "speedup_cpu,particle_step_ratio\n";
   for (const auto& r : rows)
-    out += fmt::format("{},{},{},{},{},{},{},{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n",
+    out += fmt::format("{},{},{},{},{},{},{},{},{},{:.9g},{},{:.9g},{},{},{:.9g},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},"
+                       "{:.9g},{:.9g}\n",
                        csv_cell(r.v->name), csv_cell(r.v->label), csv_cell(r.v->sweep_key),
                        csv_cell(r.v->sweep_value), csv_cell(r.v->run.string()), r.reused ? 1 : 0,
-                       csv_cell(r.levels), r.particles, csv_cell(r.probe), r.mdot, r.sigma, r.error_pct, r.wall,
-                       r.cpu, r.particle_steps, r.wall > 0.0 ? r.particle_steps / r.wall : 0.0, r.speedup_wall,
+                       csv_cell(r.levels), r.particles, csv_cell(r.probe), r.mdot, csv_number(r.ci95), r.sigma,
+                       r.replicas, csv_number(r.spread), r.error_pct, csv_number(r.error_ci_pct), r.wall, r.cpu,
+                       r.particle_steps, r.wall > 0.0 ? r.particle_steps / r.wall : 0.0, r.speedup_wall,
                        r.speedup_cpu, r.step_ratio);
   io::write_file_atomic(s.folder / "study.csv", out);
+}
+
+// One table line of study.md.
+std::string md_row(const StudyRow& r, bool swept) {
+  const std::string value = r.v->sweep.empty() ? "—" : fmt::format("{} = {}", r.v->sweep_key, r.v->sweep_value);
+  const std::string reps = r.replicas > 1 ? fmt::format("{} (spread {:.4f})", r.replicas, r.spread) : "1";
+  return fmt::format("| {}{} |{} {} | {:.4f} ± {} | {:.4f} | {} | {:+.1f} ± {} % | {:.1f} | {:.1f}{} | {:.3g} | {:.3g} "
+                     "| {:.2f} / {:.2f} | {:.2f} |\n",
+                     r.v->label, r.reused ? " (reused)" : "", swept ? fmt::format(" {} |", value) : std::string(),
+                     r.levels, r.mdot, fixed(r.ci95, 4), r.sigma, reps, r.error_pct, fixed(r.error_ci_pct, 1), r.wall,
+                     r.cpu, r.cpu_measured ? "" : " *", r.particle_steps, r.wall > 0.0 ? r.particle_steps / r.wall : 0.0,
+                     r.speedup_wall, r.speedup_cpu, r.step_ratio);
 }
 
 void write_md(const StudySpec& s, const std::vector<StudyRow>& rows) {
@@ -114,25 +201,34 @@ void write_md(const StudySpec& s, const std::vector<StudyRow>& rows) {
   out += fmt::format("Study file: `{}`. Reference: `{}`. Discharge: probe `{}` (⟨ṁ⟩ and σ(ṁ) over its window; a "
                      "hierarchy's from its finest level).\n\n",
                      s.file.empty() ? "(default variants)" : s.file, s.reference, rows.front().probe);
-  out += fmt::format("| variant |{} particles (largest per level) | ⟨ṁ⟩ ± σ(ṁ) [kg/s] | error | wall [s] | CPU [s] | "
-                     "particle-steps | particle-steps/s | speedup wall / CPU | particle-step ratio |\n",
+  out += fmt::format("| variant |{} particles (largest per level) | ⟨ṁ⟩ ± 95 % CI [kg/s] | σ(ṁ) [kg/s] | replicas | "
+                     "error ± 95 % CI | wall [s] | CPU [s] | particle-steps | particle-steps/s | speedup wall / CPU | "
+                     "particle-step ratio |\n",
                      swept ? " swept value |" : "");
-  out += fmt::format("| --- |{} --- | --- | --- | --- | --- | --- | --- | --- | --- |\n", swept ? " --- |" : "");
-  for (const auto& r : rows) {
-    const std::string value = r.v->sweep.empty() ? "—" : fmt::format("{} = {}", r.v->sweep_key, r.v->sweep_value);
-    out += fmt::format("| {}{} |{} {} | {:.4f} ± {:.4f} | {:+.1f} % | {:.1f} | {:.1f}{} | {:.3g} | {:.3g} | {:.2f} / "
-                       "{:.2f} | {:.2f} |\n",
-                       r.v->label, r.reused ? " (reused)" : "",
-                       swept ? fmt::format(" {} |", value) : std::string(), r.levels, r.mdot, r.sigma, r.error_pct,
-                       r.wall, r.cpu, r.cpu_measured ? "" : " *", r.particle_steps, r.wall > 0.0 ? r.particle_steps / r.wall : 0.0, r.speedup_wall,
-                       r.speedup_cpu, r.step_ratio);
-  }
-  out += "\nerror = (⟨ṁ⟩ − ⟨ṁ⟩_ref) / ⟨ṁ⟩_ref. CPU seconds = user + system time of every process of the run, "
+  out += fmt::format("| --- |{} --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+                     swept ? " --- |" : "");
+  for (const auto& r : rows) out += md_row(r, swept);
+  out += "\nerror = (⟨ṁ⟩ − ⟨ṁ⟩_ref) / ⟨ṁ⟩_ref. 95 % CI of ⟨ṁ⟩: batch means over the probe's window (the samples "
+         "are autocorrelated; summary.json's ci_method says how many batches); with replicas, the t interval of the "
+         "replica means, and ⟨ṁ⟩, σ(ṁ) and the costs are means over the replicas. The error's interval combines both "
+         "runs' intervals as independent: δe = |m / m_ref| √((δm / m)² + (δm_ref / m_ref)²); n/a = a run written "
+         "before intervals were recorded. CPU seconds = user + system time of every process of the run, "
          "measured by the launcher (a level waiting for the coupler uses none); * = a run without that measurement: "
          "Σ over levels of wall seconds × ranks plus the coupler's busy seconds. Speedup = reference / variant "
          "(wall and CPU seconds); particle-step ratio = reference's particle-steps / the variant's.\n\n";
-  for (const auto& r : rows) out += fmt::format("- `{}`: `{}`\n", r.v->name, r.v->run.string());
+  for (const auto& r : rows)
+    for (const auto& q : r.runs)
+      out += fmt::format("- `{}`{}: `{}`\n", r.v->name, r.replicas > 1 ? fmt::format(" (seed {})", q.seed) : "",
+                         q.run.string());
   io::write_file_atomic(s.folder / "study.md", out);
+}
+
+nlohmann::json runs_json(const StudyRow& r) {
+  auto a = nlohmann::json::array();
+  for (const auto& q : r.runs)
+    a.push_back({{"run", fs::absolute(q.run).string()}, {"seed", q.seed}, {"mdot_kg_per_s", q.mdot},
+                 {"ci95_kg_per_s", json_number(q.ci95)}});
+  return a;
 }
 
 void write_json(const StudySpec& s, const std::vector<StudyRow>& rows) {
@@ -151,8 +247,14 @@ void write_json(const StudySpec& s, const std::vector<StudyRow>& rows) {
                              {"probe", r.probe},
                              {"probe_csv", fs::absolute(r.data_dir / "probes" / (r.probe + ".csv")).string()},
                              {"mdot_kg_per_s", r.mdot},
+                             {"ci95_kg_per_s", json_number(r.ci95)},
+                             {"ci_method", r.ci_method},
                              {"sigma_kg_per_s", r.sigma},
+                             {"replicas", r.replicas},
+                             {"spread_kg_per_s", json_number(r.spread)},
+                             {"runs", runs_json(r)},
                              {"error_pct", r.error_pct},
+                             {"error_ci_pct", json_number(r.error_ci_pct)},
                              {"wall_s", r.wall},
                              {"cpu_s", r.cpu},
                              {"particle_steps", r.particle_steps}});
@@ -170,6 +272,10 @@ void write_study_report(const StudySpec& s, std::vector<StudyRow>& rows) {
   auto ratio = [](double a, double b) { return b > 0.0 ? a / b : 0.0; };
   for (auto& r : rows) {
     r.error_pct = 100.0 * (r.mdot - ref.mdot) / ref.mdot;
+    // Independent runs: δe = |m/m_ref| √((δm/m)² + (δm_ref/m_ref)²), written without dividing by m (m may be 0).
+    // The reference's own error is 0 exactly. NaN (n/a) when either run has no interval.
+    r.error_ci_pct = &r == &ref ? 0.0
+                                : 100.0 * std::hypot(r.ci95, r.mdot * ref.ci95 / ref.mdot) / std::abs(ref.mdot);
     r.speedup_wall = ratio(ref.wall, r.wall);
     r.speedup_cpu = ratio(ref.cpu, r.cpu);
     r.step_ratio = ratio(ref.particle_steps, r.particle_steps);

@@ -3,7 +3,9 @@
 // the discharge, its error against the reference and the cost, read from each
 // run's summary.json, as study.csv (machines), study.md (people) and study.json
 // (scripts/plot_study.py: run folders, probe series, the pressure layer).
+#include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -20,8 +22,21 @@ struct StudyRow {
   std::string levels;           // "coarse α 2: 313 + fine α 1: 2140"
   long long particles = 0;      // sum of every level's largest particle count
   double mdot = 0.0, sigma = 0.0;  // probe's ⟨ṁ⟩ and σ(ṁ) over its window [kg/s]
+  // Half-width of ⟨ṁ⟩'s 95 % interval [kg/s]: the run's (batch means, summary.json), or with replicas
+  // the t interval of the replica means; NaN when the run did not record one (written before it was).
+  double ci95 = std::numeric_limits<double>::quiet_NaN();
+  std::string ci_method;
+  int replicas = 1;
+  double spread = std::numeric_limits<double>::quiet_NaN();  // sample std of the replica means [kg/s]
+  struct Run {
+    std::filesystem::path run;
+    uint64_t seed = 0;
+    double mdot = 0.0, ci95 = 0.0;
+  };
+  std::vector<Run> runs;        // the row's runs: one, or one per replica
   std::string probe;            // the probe's name
   double error_pct = 0.0;       // 100 (⟨ṁ⟩ - ⟨ṁ⟩_ref) / ⟨ṁ⟩_ref
+  double error_ci_pct = std::numeric_limits<double>::quiet_NaN();  // its 95 % half-width, from both ci95
   double wall = 0.0;            // run's wall seconds
   double cpu = 0.0;             // measured CPU seconds of the run's processes (else Σ levels wall × ranks + coupler busy)
   bool cpu_measured = false;
@@ -33,10 +48,17 @@ struct StudyRow {
 // Reads a completed run's summary.json; `probe` "" = the first probe. Throws StudyError.
 StudyRow measure_run(const Variant& v, const std::string& probe);
 
-// Fills the error and the ratios against rows[0] (the reference) and writes
+// The runs of a variant with replicas (consecutive, same name) become one row: the mean of the
+// replica means, their spread and a t interval with N - 1 degrees of freedom; costs per run (means).
+std::vector<StudyRow> combine_replicas(std::vector<StudyRow> runs);
+
+// Fills the error, its interval and the ratios against rows[0] (the reference) and writes
 // study.csv, study.md and study.json into the study folder.
 void write_study_report(const StudySpec& s, std::vector<StudyRow>& rows);
 
 nlohmann::json read_json_file(const std::filesystem::path& p);
+
+// One row as `mlcg study` prints it at the end ("n/a" for an interval a run did not record).
+std::string console_line(const StudyRow& r);
 
 }  // namespace mlcg::launcher

@@ -5,8 +5,10 @@ usage: scripts/plot_study.py STUDY_DIR
 
 Reads STUDY_DIR/study.json and writes into STUDY_DIR:
   error_vs_time.png  |error of <m_dot>| against wall time, one labelled point per
-                     variant, the Pareto front (no other variant is both faster
-                     and more accurate) marked; a sweep's points joined in order
+                     variant with the error's 95 % interval as an error bar
+                     (none for a run that recorded no interval), the Pareto
+                     front (no other variant is both faster and more accurate)
+                     marked; a sweep's points joined in order
   discharge.png      mass flow against time of every variant (its probe CSV; a
                      hierarchy's finest level)
   pressure.png       granular pressure in the central cells of the transition
@@ -49,7 +51,11 @@ def error_vs_time(plt, study, out):
             sweeps.setdefault(v["sweep"], []).append((t, e))
     for name, p in sweeps.items():
         ax.plot([q[0] for q in p], [q[1] for q in p], "-", color="0.7", zorder=1, label=f"sweep '{name}'")
-    ax.scatter([p[0] for p in pts], [p[1] for p in pts], s=40, color="C0", zorder=2, label="variant")
+    # The error's 95 % interval; runs written before intervals were recorded have none (null).
+    ci = [v.get("error_ci_pct") for v in vs]
+    ax.errorbar([p[0] for p in pts], [p[1] for p in pts], yerr=[c if c is not None else 0.0 for c in ci], fmt="o",
+                ms=6, color="C0", ecolor="C0", elinewidth=1.2, capsize=4, zorder=2,
+                label="variant (bar: 95 % interval of the error)")
     ax.plot([pts[i][0] for i in front], [pts[i][1] for i in front], "o--", color="C3", mfc="none", ms=12,
             zorder=3, label="Pareto front")
     for v, (t, e) in zip(vs, pts):
@@ -63,7 +69,7 @@ def error_vs_time(plt, study, out):
     ax.set_xlabel("wall time [s]")
     ax.set_ylabel("|error of ⟨ṁ⟩| against the reference [%]")
     ax.set_title(study.get("title") or "error against run time")
-    ax.set_ylim(bottom=0.0, top=max(1.0, 1.25 * max(p[1] for p in pts)))
+    ax.set_ylim(bottom=0.0, top=max(1.0, 1.15 * max(p[1] + (c or 0.0) for p, c in zip(pts, ci))))
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -84,7 +90,9 @@ def discharge(plt, study, out):
             continue
         style = "-" if v["name"] == study["reference"] else ("--" if v["sweep"] else "-")
         lw = 2.0 if v["name"] == study["reference"] else 1.2
-        ax.plot(t, m, style, lw=lw, label=f"{v['label']}: ⟨ṁ⟩ = {v['mdot_kg_per_s']:.4f} kg/s")
+        ci = v.get("ci95_kg_per_s")
+        pm = f" ± {ci:.4f}" if ci is not None else ""
+        ax.plot(t, m, style, lw=lw, label=f"{v['label']}: ⟨ṁ⟩ = {v['mdot_kg_per_s']:.4f}{pm} kg/s")
     ax.set_xlabel("time [s]")
     ax.set_ylabel(f"mass flow through probe '{study['variants'][0]['probe']}' [kg/s]")
     ax.set_title("discharge")

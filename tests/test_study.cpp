@@ -1,7 +1,8 @@
 // `mlcg study` on a copy of cases/quickstart (discharge shortened to 0.2 s so the
-// whole suite takes well under a minute): one row per variant whose error and
-// speedups follow from each run's summary.json, reuse of completed runs on an
-// unchanged case, --rerun, a sweep, refused study files, and the plots.
+// whole suite takes well under a minute): one row per variant whose error, its
+// 95 % interval and speedups follow from each run's summary.json, reuse of
+// completed runs on an unchanged case, --rerun, a sweep, an older run without
+// intervals, replicas, refused study files, and the plots.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,6 +15,8 @@
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
+
+#include "measure/series_stats.hpp"
 
 namespace fs = std::filesystem;
 
@@ -75,6 +78,37 @@ nlohmann::json summary(const std::string& run) {
   return nlohmann::json::parse(in);
 }
 
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+// The half-width of a run's ⟨ṁ⟩ interval recomputed from its probe csv: the window's samples, the last
+// B x b of them cut into the batches summary.json names, t_{0.975, B-1} s_B / sqrt(B).
+double ci_from_probe_csv(const fs::path& run, const nlohmann::json& probe) {
+  unsigned batches = 0, size = 0;
+  EXPECT_EQ(std::sscanf(probe["ci_method"].get<std::string>().c_str(), "batch means, %u batches of %u samples",
+                        &batches, &size), 2) << probe["ci_method"];
+  const double t0 = probe["window"][0], t1 = probe["window"][1], dt = 0.01;  // 100 Hz: the default sample_rate
+  std::vector<double> x;
+  std::ifstream in(run / probe["file"].get<std::string>());
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    const double t = std::stod(line.substr(0, line.find(','))), v = std::stod(line.substr(line.find(',') + 1));
+    if (t - dt > t0 - 1e-6 && t < t1 + 1e-6) x.push_back(v);
+  }
+  EXPECT_EQ(x.size(), probe["samples_in_window"].get<size_t>());
+  if (batches < 2 || batches * size > x.size()) return -1.0;
+  std::vector<double> m(batches, 0.0);
+  const size_t skip = x.size() - batches * size;
+  for (size_t i = 0; i < batches * size; ++i) m[i / size] += x[skip + i] / size;
+  double mean = 0.0, ss = 0.0;
+  for (double v : m) mean += v / batches;
+  for (double v : m) ss += (v - mean) * (v - mean);
+  return mlcg::stats::student_t_quantile(0.975, batches - 1) * std::sqrt(ss / (batches - 1) / batches);
+}
+
 bool has_matplotlib() { return std::system("/usr/bin/python3 -c 'import matplotlib' > /dev/null 2>&1") == 0; }
 
 // Every test gets the quickstart folder with a 0.2 s discharge (and its study.toml) in its own
@@ -106,6 +140,39 @@ class Study : public ::testing::Test {
     return (kDir / "cases").string() + " --no-plots --study " + file.string() + " --out " + (kDir / folder).string();
   }
 };
+
+// Every run records its ⟨ṁ⟩ interval (the hierarchy's summary the fine level's), and the error's interval
+// in study.json / study.csv is the two runs' intervals propagated: recomputed here from the summaries.
+void check_intervals(const std::vector<std::map<std::string, std::string>>& rows) {
+  const auto study = read_json(kDir / "main" / "study.json");
+  ASSERT_EQ(study["variants"].size(), rows.size());
+  const auto ref = summary(rows[0].at("run"))["probes"][0];
+  const double m_ref = ref["mean_kg_per_s"], ci_ref = ref["ci95_kg_per_s"];
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const auto p = summary(rows[i].at("run"))["probes"][0];
+    ASSERT_TRUE(p["ci95_kg_per_s"].is_number()) << rows[i].at("name");
+    const double m = p["mean_kg_per_s"], ci = p["ci95_kg_per_s"];
+    EXPECT_GT(ci, 0.0) << rows[i].at("name");
+    EXPECT_GT(p["std_kg_per_s"].get<double>(), ci) << "the window's fluctuation exceeds the mean's uncertainty";
+    const double expect = i == 0 ? 0.0 : 100.0 * std::abs(m / m_ref) * std::sqrt(std::pow(ci / m, 2) +
+                                                                                 std::pow(ci_ref / m_ref, 2));
+    const auto& v = study["variants"][i];
+    EXPECT_NEAR(v["ci95_kg_per_s"].get<double>(), ci, 1e-12 * ci) << rows[i].at("name");
+    EXPECT_NEAR(v["error_ci_pct"].get<double>(), expect, 1e-9 * (1.0 + expect)) << rows[i].at("name");
+    EXPECT_NEAR(std::stod(rows[i].at("error_ci_pct")), expect, 1e-6 * (1.0 + expect)) << rows[i].at("name");
+  }
+  EXPECT_GT(std::stod(rows[1].at("error_ci_pct")), 0.0);
+  // The reference's interval from its probe csv, by hand.
+  EXPECT_NEAR(ci_from_probe_csv(rows[0].at("run"), ref), ci_ref, 1e-6 * ci_ref);
+  // A hierarchy reports its finest level's probe, interval included.
+  const fs::path mlcg = rows[2].at("run");
+  const auto fine = read_json(mlcg / "levels" / "fine" / "summary.json")["probes"][0];
+  const auto top = summary(mlcg.string())["probes"][0];
+  EXPECT_EQ(top["ci95_kg_per_s"], fine["ci95_kg_per_s"]);
+  EXPECT_EQ(top["ci_method"], fine["ci_method"]);
+  EXPECT_NEAR(ci_from_probe_csv(mlcg / "levels" / "fine", fine), fine["ci95_kg_per_s"].get<double>(),
+              1e-6 * fine["ci95_kg_per_s"].get<double>());
+}
 
 void check_rows() {
   const auto rows = read_csv(kDir / "main" / "study.csv");
@@ -144,6 +211,7 @@ void check_rows() {
   EXPECT_NE(std::stod(rows[1].at("error_pct")), 0.0);
   const std::string md = slurp(kDir / "main" / "study.md");
   for (const auto& r : rows) EXPECT_NE(md.find(r.at("label")), std::string::npos) << r.at("label");
+  check_intervals(rows);
 }
 
 void check_plots() {
@@ -221,6 +289,10 @@ TEST_F(Study, ASweepOverTwoValuesGivesTwoRowsWithTheSweptValue) {
   std::string out;
   ASSERT_EQ(study(cg2_only("cg2.toml", "earlier"), &out), 0) << out;
   const fs::path ref_run = kDir / "earlier" / "cg2";
+  // An older run folder, written before intervals were recorded: the study still works and says n/a.
+  auto old = summary(ref_run.string());
+  for (auto& p : old["probes"]) p.erase("ci95_kg_per_s"), p.erase("ci_method"), p.erase("effective_samples");
+  std::ofstream(ref_run / "summary.json") << old.dump(2);
   const auto ref_time = fs::last_write_time(ref_run / "summary.json");
   const fs::path file = kDir / "cases" / "sweep.toml";
   std::ofstream(file) << "[[variants]]\nname = \"ref\"\nrun = \"" << ref_run.string()
@@ -242,8 +314,49 @@ TEST_F(Study, ASweepOverTwoValuesGivesTwoRowsWithTheSweptValue) {
     EXPECT_DOUBLE_EQ(s["levels"][0]["dt"].get<double>(), 2.0 * std::stod(values[i - 1])) << "dt = alpha x dt_alpha1";
     const double m = s["probes"][0]["mean_kg_per_s"];
     EXPECT_NEAR(std::stod(rows[i].at("error_pct")), 100.0 * (m - m_ref) / m_ref, 1e-6);
+    EXPECT_NEAR(std::stod(rows[i].at("ci95_kg_per_s")), s["probes"][0]["ci95_kg_per_s"].get<double>(), 1e-8);
+    EXPECT_EQ(rows[i].at("error_ci_pct"), "") << "no interval of the reference: none for the error";
   }
+  EXPECT_EQ(rows[0].at("ci95_kg_per_s"), "");
+  EXPECT_NE(slurp(kDir / "sweep" / "study.md").find("± n/a"), std::string::npos);
+  EXPECT_TRUE(read_json(kDir / "sweep" / "study.json")["variants"][1]["error_ci_pct"].is_null());
   EXPECT_EQ(fs::last_write_time(ref_run / "summary.json"), ref_time) << "a given run is never rerun";
+}
+
+// `replicas = 2` on the cheap coarse-grain case: two runs with seeds 42 and 43 (derived cases), one row
+// whose ⟨ṁ⟩ is their mean, spread their sample std and interval t_{0.975,1} spread / sqrt(2).
+TEST_F(Study, ReplicasRunTheVariantWithSuccessiveSeedsAndReportTheirSpread) {
+  const fs::path file = kDir / "cases" / "replicas.toml";
+  std::ofstream(file) << "[[variants]]\nname = \"cg2\"\ncase = \"cg2.toml\"\nreplicas = 2\n";
+  const std::string args =
+      (kDir / "cases").string() + " --no-plots --study " + file.string() + " --out " + (kDir / "rep").string();
+  std::string out;
+  ASSERT_EQ(study(args, &out), 0) << out;
+  std::vector<double> m;
+  for (int k = 1; k <= 2; ++k) {
+    const fs::path run = kDir / "rep" / ("cg2-r" + std::to_string(k));
+    const std::string copied = slurp(run / "case.toml");
+    EXPECT_NE(copied.find("seed = " + std::to_string(41 + k)), std::string::npos) << copied.substr(0, 300);
+    EXPECT_TRUE(fs::exists(kDir / "rep" / "cases" / ("cg2-r" + std::to_string(k) + ".toml")));
+    const auto s = summary(run.string());
+    EXPECT_EQ(s["status"], "completed");
+    m.push_back(s["probes"][0]["mean_kg_per_s"].get<double>());
+  }
+  EXPECT_NE(m[0], m[1]) << "another seed, another discharge";
+  const auto rows = read_csv(kDir / "rep" / "study.csv");
+  ASSERT_EQ(rows.size(), 1u);
+  const double mean = 0.5 * (m[0] + m[1]), spread = std::abs(m[0] - m[1]) / std::sqrt(2.0);
+  EXPECT_EQ(rows[0].at("replicas"), "2");
+  EXPECT_NEAR(std::stod(rows[0].at("mdot_kg_per_s")), mean, 1e-8 * mean);
+  EXPECT_NEAR(std::stod(rows[0].at("spread_kg_per_s")), spread, 1e-6 * spread);
+  EXPECT_NEAR(std::stod(rows[0].at("ci95_kg_per_s")), 12.7062 * spread / std::sqrt(2.0), 1e-4 * spread);
+  const auto v = read_json(kDir / "rep" / "study.json")["variants"][0];
+  ASSERT_EQ(v["runs"].size(), 2u);
+  EXPECT_EQ(v["runs"][0]["seed"], 42);
+  EXPECT_EQ(v["runs"][1]["seed"], 43);
+  EXPECT_NE(out.find("(2 replicas, spread"), std::string::npos) << out;
+  ASSERT_EQ(study(args, &out), 0) << out;
+  EXPECT_EQ(out.find("running"), std::string::npos) << "both replicas are reused: " << out;
 }
 
 TEST_F(Study, RefusesBadStudyFilesNamingFileLineAndKey) {
@@ -256,6 +369,14 @@ TEST_F(Study, RefusesBadStudyFilesNamingFileLineAndKey) {
       {sweep + "key = \"levels.nosuch.alpha\"\nvalues = [2.0]\n", "'nosuch' selects no entry of levels"},
       {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\nrefrence = \"x\"\n", "bad.toml:4: variants[0].refrence: unknown key"},
       {"[[variants]]\nname = \"r\"\ncase = \"nothere.toml\"\n", "bad.toml:3: variants[0].case: file not found"},
+      {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\nreplicas = 0\n",
+       "bad.toml:4: variants[0].replicas: 0 is out of range; allowed 1..20"},
+      {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\n\nreplicas = 21\n",
+       "bad.toml:5: variants[0].replicas: 21 is out of range; allowed 1..20"},
+      {"[[variants]]\nname = \"r\"\nreplicas = \"x\"\ncase = \"cg2.toml\"\n",
+       "bad.toml:3: variants[0].replicas: 'x' is not a number; allowed 1..20"},
+      {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\nreplicas = 2.5\n",
+       "bad.toml:4: variants[0].replicas: 2.5 is not a whole number; allowed 1..20"},
   };
   for (const auto& b : bad) {
     std::ofstream(kDir / "cases" / "bad.toml") << b.text;

@@ -91,8 +91,11 @@ RunStatus Level::run() {
   for (const auto& pr : probes_) {
     const auto w = pr.window_stats();
     if (w.samples > 0)
-      log_->info("probe '{}': mass flow {:.4f} +- {:.4f} kg/s over {} samples", pr.params().name, w.mean, w.stddev,
-                 w.samples);
+      log_->info("probe '{}': mass flow {:.4f} +- {:.4f} kg/s over {} samples; mean's 95 % CI +- {:.4f} kg/s ({})",
+                 pr.params().name, w.mean, w.stddev, w.samples, w.ci.ci95, w.ci.method());
+    if (w.samples > 1 && w.ci.lag1 > stats::kLag1Limit)
+      log_->warn("probe '{}': the batch means are still correlated (lag 1: {:.2f}), so the interval is likely too "
+                 "narrow; a longer window gives room for longer batches", pr.params().name, w.ci.lag1);
   }
   return status;
 }
@@ -256,6 +259,12 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
     q["samples_in_window"] = w.samples;
     q["mean_kg_per_s"] = w.mean;
     q["std_kg_per_s"] = w.stddev;
+    // The samples are autocorrelated: the half-width comes from batch means, not std / sqrt(n).
+    const bool has_ci = std::isfinite(w.ci.ci95);
+    q["ci95_kg_per_s"] = has_ci ? json(w.ci.ci95) : json();
+    q["ci_method"] = has_ci ? w.ci.method() : "fewer than 2 samples in the window";
+    q["effective_samples"] = has_ci ? json(w.ci.effective_samples) : json();
+    q["ci_batch_lag1"] = has_ci ? json(w.ci.lag1) : json();  // above 0.1: batches too short, interval too narrow
     q["total_mass_kg"] = pr.state().total_mass;
     probes.push_back(q);
   }

@@ -38,16 +38,18 @@ void MassFlowProbe::close_sample(double t, double global_mass) {
 MassFlowProbe::WindowStats MassFlowProbe::window_stats() const {
   WindowStats w;
   if (!prm_.window_known) return w;
-  double sum = 0.0, sum2 = 0.0;
+  std::vector<double> rates;
   for (const auto& s : st_.samples) {
     const double t0 = s.t_end - prm_.sample_interval;
     if (t0 < prm_.window_start - 1e-9 || s.t_end > prm_.window_end + 1e-9) continue;
-    sum += s.rate;
-    sum2 += s.rate * s.rate;
-    ++w.samples;
+    rates.push_back(s.rate);
   }
+  w.samples = rates.size();
   if (w.samples == 0) return w;
-  w.mean = sum / static_cast<double>(w.samples);
+  double sum2 = 0.0;
+  for (double r : rates) sum2 += r * r;
+  w.ci = stats::batch_means_ci(rates);
+  w.mean = w.ci.mean;
   const double var = sum2 / static_cast<double>(w.samples) - w.mean * w.mean;
   w.stddev = var > 0.0 ? std::sqrt(var) : 0.0;
   return w;

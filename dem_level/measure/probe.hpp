@@ -11,6 +11,7 @@
 
 #include "core/particles.hpp"
 #include "measure/plane_crossings.hpp"
+#include "measure/series_stats.hpp"
 
 namespace mlcg {
 
@@ -57,6 +58,7 @@ class MassFlowProbe {
   struct WindowStats {
     size_t samples = 0;
     double mean = 0.0, stddev = 0.0;
+    stats::MeanCI ci;  // the mean's 95 % interval by batch means (the samples are autocorrelated)
   };
   WindowStats window_stats() const;
   std::string csv() const;
