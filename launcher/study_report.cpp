@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 
 #include <fmt/format.h>
 
@@ -51,11 +53,39 @@ StudyRow measure_run(const Variant& v, const std::string& probe) {
   r.probe = p->value("name", "");
   r.mdot = p->value("mean_kg_per_s", 0.0);
   r.sigma = p->value("std_kg_per_s", 0.0);
-  // Runs written before the interval was recorded have no ci95_kg_per_s: NaN, shown as n/a.
-  if (const auto ci = p->find("ci95_kg_per_s"); ci != p->end() && ci->is_number()) r.ci95 = ci->get<double>();
-  r.ci_method = p->value("ci_method", "");
+  if (const auto ci = p->find("ci95_kg_per_s"); ci != p->end() && ci->is_number()) {
+    r.ci95 = ci->get<double>();
+    r.ci_method = p->value("ci_method", "");
+  } else {  // a run written before the interval was recorded: from its probe series, else n/a (NaN)
+    probe_series_ci(r, *p);
+  }
   r.runs = {{v.run, v.seed, r.mdot, r.ci95}};
   return r;
+}
+
+void probe_series_ci(StudyRow& r, const nlohmann::json& probe) {
+  const auto& win = probe.value("window", nlohmann::json());
+  std::ifstream in(r.data_dir / probe.value("file", ""));
+  if (!win.is_array() || win.size() != 2 || !in) return;
+  std::vector<std::pair<double, double>> tr;  // sample end time, rate
+  std::string line;
+  std::getline(in, line);  // header
+  double t = 0.0, rate = 0.0;
+  char comma = 0;
+  while (std::getline(in, line)) {
+    std::istringstream ls(line);
+    if (ls >> t >> comma >> rate) tr.emplace_back(t, rate);
+  }
+  if (tr.size() < 2) return;
+  // The level's own rule (MassFlowProbe::window_stats): samples wholly inside the window.
+  const double dt = tr[1].first - tr[0].first, t0 = win[0].get<double>(), t1 = win[1].get<double>();
+  std::vector<double> x;
+  for (const auto& [te, q] : tr)
+    if (te - dt >= t0 - 1e-6 && te <= t1 + 1e-6) x.push_back(q);
+  const stats::MeanCI ci = stats::batch_means_ci(x);
+  if (std::isnan(ci.ci95) || std::fabs(ci.mean - r.mdot) > 1e-6 * std::fabs(r.mdot)) return;  // not the run's window
+  r.ci95 = ci.ci95;
+  r.ci_method = ci.method() + ", from " + probe.value("file", "") + " (the run predates the interval)";
 }
 
 namespace {

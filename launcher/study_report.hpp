@@ -47,6 +47,10 @@ struct StudyRow {
 
 // Reads a completed run's summary.json; `probe` "" = the first probe. Throws StudyError.
 StudyRow measure_run(const Variant& v, const std::string& probe);
+// For a run whose summary.json predates the recorded interval: r.ci95 from the probe's series
+// (its probes/NAME.csv, the summary's window, the level's batch-means rule); stays NaN when the series
+// is missing or does not reproduce the summary's mean.
+void probe_series_ci(StudyRow& r, const nlohmann::json& probe);
 
 // The runs of a variant with replicas (consecutive, same name) become one row: the mean of the
 // replica means, their spread and a t interval with N - 1 degrees of freedom; costs per run (means).

@@ -289,8 +289,10 @@ TEST_F(Study, ASweepOverTwoValuesGivesTwoRowsWithTheSweptValue) {
   std::string out;
   ASSERT_EQ(study(cg2_only("cg2.toml", "earlier"), &out), 0) << out;
   const fs::path ref_run = kDir / "earlier" / "cg2";
-  // An older run folder, written before intervals were recorded: the study still works and says n/a.
+  // An older run folder, written before intervals were recorded: the study takes the interval from the
+  // probe's series (the same batch-means rule), and says n/a where the series is gone too.
   auto old = summary(ref_run.string());
+  const double ci_recorded = old["probes"][0]["ci95_kg_per_s"].get<double>();
   for (auto& p : old["probes"]) p.erase("ci95_kg_per_s"), p.erase("ci_method"), p.erase("effective_samples");
   std::ofstream(ref_run / "summary.json") << old.dump(2);
   const auto ref_time = fs::last_write_time(ref_run / "summary.json");
@@ -315,12 +317,22 @@ TEST_F(Study, ASweepOverTwoValuesGivesTwoRowsWithTheSweptValue) {
     const double m = s["probes"][0]["mean_kg_per_s"];
     EXPECT_NEAR(std::stod(rows[i].at("error_pct")), 100.0 * (m - m_ref) / m_ref, 1e-6);
     EXPECT_NEAR(std::stod(rows[i].at("ci95_kg_per_s")), s["probes"][0]["ci95_kg_per_s"].get<double>(), 1e-8);
-    EXPECT_EQ(rows[i].at("error_ci_pct"), "") << "no interval of the reference: none for the error";
+    EXPECT_FALSE(rows[i].at("error_ci_pct").empty()) << "the reference's interval came from its series";
   }
-  EXPECT_EQ(rows[0].at("ci95_kg_per_s"), "");
+  EXPECT_NEAR(std::stod(rows[0].at("ci95_kg_per_s")), ci_recorded, 1e-6 * ci_recorded);
+  EXPECT_EQ(fs::last_write_time(ref_run / "summary.json"), ref_time) << "a given run is never rerun";
+
+  fs::rename(ref_run / "probes", ref_run / "probes.hidden");  // no series either: n/a
+  ASSERT_EQ(study((kDir / "cases").string() + " --no-plots --study " + file.string() + " --out " +
+                      (kDir / "sweep").string(), &out),
+            0)
+      << out;
+  const auto rows2 = read_csv(kDir / "sweep" / "study.csv");
+  EXPECT_EQ(rows2[0].at("ci95_kg_per_s"), "");
+  EXPECT_EQ(rows2[1].at("error_ci_pct"), "") << "no interval of the reference: none for the error";
   EXPECT_NE(slurp(kDir / "sweep" / "study.md").find("± n/a"), std::string::npos);
   EXPECT_TRUE(read_json(kDir / "sweep" / "study.json")["variants"][1]["error_ci_pct"].is_null());
-  EXPECT_EQ(fs::last_write_time(ref_run / "summary.json"), ref_time) << "a given run is never rerun";
+  fs::rename(ref_run / "probes.hidden", ref_run / "probes");
 }
 
 // `replicas = 2` on the cheap coarse-grain case: two runs with seeds 42 and 43 (derived cases), one row
