@@ -187,6 +187,26 @@ TEST(MlcgOpenSides, ARegionWithOpenSidesBooksBothDirectionsAndHandsFineMassBack)
   fs::remove(dir.string() + ".out");
 }
 
+// The fine region's top 1 cm above a wide cone's junction with its cylinder (issue 11, item 1): the
+// insertion slabs (1.6 cm deep) reach below the junction, where the wall turns inward. The fine level
+// checks every particle it receives against its own walls (check_region: no centre outside them, no
+// wall overlap) and the filling runs through.
+TEST(MlcgJunction, FineParticlesArePlacedInsideTheWallsBelowAJunction) {
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_junction_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  ASSERT_EQ(run(kBin + "/mlcg run " + kSrc + "/tests/data/cases/junction_hopper.toml --out " + dir.string() +
+                " --quiet > " + dir.string() + ".out 2>&1"),
+            0)
+      << "see " << dir.string() << ".out";
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  const auto grid = s["coupling"]["regions"][0];
+  EXPECT_GT(grid["top"].get<double>(), 0.02) << "the region's top must lie above the junction";
+  EXPECT_GT(check_region(dir, s, 0, "fine"), 0.03) << "most of the fill's lower part handed over";
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".out");
+}
+
 // ---- Consistent checkpoints, interrupt and resume, failures (issue 5) ----
 
 namespace {
