@@ -199,6 +199,8 @@ TEST(RegionRules, EveryHopperSceneHasItsVariantsAndPasses) {
     if (!e.is_directory()) continue;
     for (const char* f : {"reference.toml", "cg2.toml", "mlcg.toml", "study.toml"})
       EXPECT_TRUE(fs::is_regular_file(e.path() / f)) << e.path() / f;
+    for (const char* f : {"reference.toml", "cg2.toml"})  // single levels: nothing to check, nothing refused
+      EXPECT_TRUE(check_region_rules(load_case((e.path() / f).string())).errors.empty()) << e.path() / f;
     const CaseSpec cs = load_case((e.path() / "mlcg.toml").string());
     const auto r = check_region_rules(cs);
     EXPECT_TRUE(r.errors.empty()) << e.path() << ":\n" << all(r.errors);
