@@ -442,10 +442,6 @@ void read_initial(const Table& root, CaseSpec& spec, Names& names) {
   spec.initial = in;
 }
 
-}  // namespace mlcg::config::detail
-
-namespace mlcg::config::detail {
-
 // ---- [orifice] -----------------------------------------------------------------
 // The scene's outlet, where the walls cannot say it (a slot under a lid, an STL floor):
 // a circle (`diameter`) or a slot (`width` x `length`). Checks and scripts read it.
