@@ -256,6 +256,9 @@ TEST_F(Study, RefusesBadStudyFilesNamingFileLineAndKey) {
       {sweep + "key = \"levels.nosuch.alpha\"\nvalues = [2.0]\n", "'nosuch' selects no entry of levels"},
       {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\nrefrence = \"x\"\n", "bad.toml:4: variants[0].refrence: unknown key"},
       {"[[variants]]\nname = \"r\"\ncase = \"nothere.toml\"\n", "bad.toml:3: variants[0].case: file not found"},
+      // the region rules, before anything runs: a region top 0.83 orifice diameters above the orifice
+      {sweep + "key = \"coupling.regions[0].max\"\nvalues = [[0.04, 0.04, 0.02]]\n",
+       "coupling.regions[0].max: the region's top (its boundary surface"},
   };
   for (const auto& b : bad) {
     std::ofstream(kDir / "cases" / "bad.toml") << b.text;
