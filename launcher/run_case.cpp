@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "config/case_parser.hpp"
+#include "config/region_rules.hpp"
 #include "checkpoints.hpp"
 #include "hierarchy.hpp"
 #include "hosts.hpp"
@@ -82,11 +83,23 @@ int run_launched(const config::CaseSpec& cs, const std::string& case_file, const
 
 }  // namespace
 
+void check_regions(const config::CaseSpec& cs) {
+  const auto report = config::check_region_rules(cs);
+  for (const auto& n : report.notes) std::printf("mlcg: %s\n", n.c_str());
+  std::fflush(stdout);
+  for (const auto& w : report.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  if (report.errors.empty()) return;
+  std::string all;
+  for (const auto& e : report.errors) all += (all.empty() ? "" : "\nerror: ") + e;
+  throw std::runtime_error(all);
+}
+
 int run_case(const std::string& case_file, std::string out_dir, bool quiet, const std::string& hosts, bool curve) {
   config::CaseSpec cs;
   launcher::Placement placement;
   try {
     cs = config::load_case(case_file);
+    check_regions(cs);
     if (!hosts.empty() && cs.levels.size() < 2)
       throw std::runtime_error("--hosts places the coupler and the levels of a multi-level case; " + case_file +
                                " has one level (start it with mpirun --hostfile)");

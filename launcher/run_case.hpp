@@ -3,7 +3,13 @@
 // prints the run's summary. Shared by `mlcg run` and `mlcg study`.
 #include <string>
 
+#include "config/case_spec.hpp"
+
 namespace mlcg::launcher {
+
+// The coupling-region rules of a hierarchy (config/region_rules.hpp), before anything starts:
+// prints the notes (stdout) and warnings (stderr); throws std::runtime_error with every refusal.
+void check_regions(const config::CaseSpec& cs);
 
 // Runs the case into out_dir (default runs/<case>-<date>). Returns the run's exit code:
 // 0 completed, 2 the case or the hostfile was refused, else the code of the process that failed.

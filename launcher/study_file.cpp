@@ -11,6 +11,7 @@
 #include <toml++/toml.h>
 
 #include "config/case_parser.hpp"
+#include "run_case.hpp"
 
 namespace fs = std::filesystem;
 
@@ -338,11 +339,17 @@ std::vector<Variant> default_variants(const fs::path& dir) {
   return out;
 }
 
-// The study compares one probe's discharge: every case to run must have it.
+// The study compares one probe's discharge: every case to run must have it. A hierarchy's
+// regions must pass the region rules before anything of the study runs.
 void check_probes(const StudySpec& s) {
   for (const auto& v : s.variants) {
     if (v.case_text.empty()) continue;
     const auto cs = config::parse_case(v.case_text, v.case_file);
+    try {
+      check_regions(cs);
+    } catch (const std::runtime_error& e) {
+      throw StudyError(fmt::format("{}: variant '{}': {}", v.where, v.name, e.what()));
+    }
     const bool found = std::any_of(cs.probes.begin(), cs.probes.end(),
                                    [&](const auto& p) { return s.probe.empty() || p.name == s.probe; });
     if (!found)

@@ -218,13 +218,15 @@ TEST(CaseParser, ReadmeExampleParses) {  // the user documentation's complete ex
 }
 
 TEST(CaseParser, EveryShippedCaseParses) {  // the cases users start from, long runs included
-  int n = 0;
+  int n = 0, hoppers = 0;
   for (const auto& e : std::filesystem::recursive_directory_iterator(std::string(MLCG_SOURCE_DIR) + "/cases")) {
     if (e.path().extension() != ".toml" || e.path().filename() == "study.toml") continue;  // study files: mlcg study
     EXPECT_NO_THROW(load_case(e.path().string())) << e.path();
     ++n;
+    hoppers += e.path().parent_path().parent_path().filename() == "hoppers";
   }
-  EXPECT_GE(n, 20);
+  EXPECT_GE(n, 38);
+  EXPECT_GE(hoppers, 18);  // cases/hoppers: six scenes x reference, cg2, mlcg
 }
 
 // ---- syntax, unknown keys, types --------------------------------------------------

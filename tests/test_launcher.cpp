@@ -81,6 +81,35 @@ TEST(Launcher, RefusesABadCaseWithFileLineAndKey) {
   fs::remove(log);
 }
 
+// The region rules run before any process: a fine region whose top is 0.83 orifice diameters above
+// the orifice is refused with exit code 2, its file, line and key, and no run folder.
+TEST(Launcher, RefusesAFineRegionTooCloseAboveTheOrificeBeforeStartingAnything) {
+  const fs::path bad = fs::temp_directory_path() / ("mlcg_lowtop_" + std::to_string(::getpid()) + ".toml");
+  int line = 0;
+  {
+    std::ifstream src(kSrc + "/cases/quickstart/mlcg.toml");
+    std::string text((std::istreambuf_iterator<char>(src)), std::istreambuf_iterator<char>());
+    const std::string from = "max = [0.04, 0.04, 0.04]";
+    const size_t at = text.find(from);
+    line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
+    text.replace(at, from.size(), "max = [0.04, 0.04, 0.02]");
+    std::ofstream(bad) << text;
+  }
+  const fs::path log = bad.string() + ".out";
+  EXPECT_EQ(run(kBin + "/mlcg run " + bad.string() + " --out " + bad.string() + ".run > " + log.string() + " 2>&1"),
+            2);
+  std::ifstream out(log);
+  const std::string text((std::istreambuf_iterator<char>(out)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("error: " + bad.string() + ":" + std::to_string(line) + ": coupling.regions[0].max: "),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("0.83 orifice diameters above the orifice"), std::string::npos) << text;
+  EXPECT_EQ(text.find("coupled over"), std::string::npos) << "nothing may start: " << text;
+  EXPECT_FALSE(fs::exists(bad.string() + ".run")) << "a refused case must not start a run";
+  fs::remove(bad);
+  fs::remove(log);
+}
+
 TEST(Launcher, StartsAMultiRankLevelThroughMpirun) {
   const fs::path dir = fs::temp_directory_path() / ("mlcg_launch2_" + std::to_string(::getpid()));
   const fs::path cfile = dir.string() + ".toml";

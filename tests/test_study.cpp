@@ -389,6 +389,9 @@ TEST_F(Study, RefusesBadStudyFilesNamingFileLineAndKey) {
        "bad.toml:3: variants[0].replicas: 'x' is not a number; allowed 1..20"},
       {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\nreplicas = 2.5\n",
        "bad.toml:4: variants[0].replicas: 2.5 is not a whole number; allowed 1..20"},
+      // the region rules, before anything runs: a region top 0.83 orifice diameters above the orifice
+      {sweep + "key = \"coupling.regions[0].max\"\nvalues = [[0.04, 0.04, 0.02]]\n",
+       "coupling.regions[0].max: the region's top (its boundary surface"},
   };
   for (const auto& b : bad) {
     std::ofstream(kDir / "cases" / "bad.toml") << b.text;

@@ -325,7 +325,7 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   const Table root(doc, tbl, "");
   root.allow({"title", "seed", "gravity", "materials", "interactions", "contact", "levels", "domain", "walls",
               "insertion", "particles", "initial", "events", "probes", "grids", "output", "stability", "time",
-              "coupling", "launcher", "swap"},
+              "orifice", "coupling", "launcher", "swap"},
              "the top level");
   for (const char* k : {"materials", "interactions", "levels"})
     if (!root.has(k)) fail(doc, 1, k, "missing required table; add at least one [[" + std::string(k) + "]] entry");
@@ -353,6 +353,7 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   read_insertions(root, spec, names);
   read_particles(root, spec, names);
   read_initial(root, spec, names);
+  read_orifice(root, spec);
   resolve_rayleigh_dt(root, spec);  // needs the particles; [coupling] needs every level's dt
   read_coupling(root, spec, names);
   read_launcher(root, spec);

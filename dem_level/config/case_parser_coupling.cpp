@@ -142,6 +142,8 @@ CouplingRegionSpec read_region(const Table& r, const CaseSpec& spec, const Names
           std::to_string(bins) + " is not a valid number of size bins; give an integer >= 1");
   g.radius_bins = static_cast<int>(bins);
   g.loc = r.loc();
+  for (const char* k : {"min", "max", "cell_size", "coarse", "fine"})
+    if (r.has(k)) g.key_lines[k] = r.line(k);
   return g;
 }
 

@@ -123,6 +123,7 @@ void read_initial(const Table& root, CaseSpec& spec, Names& names);
 void read_events(const Table& root, CaseSpec& spec, Names& names);
 void read_probes(const Table& root, CaseSpec& spec, Names& names);
 void read_grids(const Table& root, CaseSpec& spec, Names& names);
+void read_orifice(const Table& root, CaseSpec& spec);
 
 // [coupling] and its [[coupling.regions]] (case_parser_coupling.cpp): runs after
 // levels and the domain are read; resolves an automatic coupling interval.

@@ -78,7 +78,7 @@ void read_walls(const Table& root, CaseSpec& spec, Names& names) {
       case WallType::Cone:
         keys.insert(keys.end(), {"center", "axis", "radius_bottom", "radius_top", "bottom", "top", "rims"});
         break;
-      case WallType::Disk: keys.insert(keys.end(), {"center", "axis", "radius"}); break;
+      case WallType::Disk: keys.insert(keys.end(), {"center", "axis", "radius", "inner_radius"}); break;
       case WallType::Mesh: keys.insert(keys.end(), {"file", "scale", "offset"}); break;
     }
     t.allow(keys, "a " + type + " wall");
@@ -101,6 +101,11 @@ void read_walls(const Table& root, CaseSpec& spec, Names& names) {
         if (w.type == WallType::Cylinder) {
           read_extent(t, w);
           read_rims(t, w);
+        } else {  // an annulus: its inner edge is the rim of a hole (an orifice in a flat floor)
+          w.inner_radius = t.number("inner_radius", w.inner_radius);
+          t.check("inner_radius", w.inner_radius >= 0.0 && w.inner_radius < w.radius,
+                  num(w.inner_radius) + " is outside [0, radius = " + num(w.radius) +
+                      "); give the radius of the disk's hole in m (0 = a full disk)");
         }
         break;
       case WallType::Cone:
@@ -435,6 +440,34 @@ void read_initial(const Table& root, CaseSpec& spec, Names& names) {
   check_reference(*t, "material", in.material, names.materials, "material");
   in.loc = t->loc();
   spec.initial = in;
+}
+
+// ---- [orifice] -----------------------------------------------------------------
+// The scene's outlet, where the walls cannot say it (a slot under a lid, an STL floor):
+// a circle (`diameter`) or a slot (`width` x `length`). Checks and scripts read it.
+void read_orifice(const Table& root, CaseSpec& spec) {
+  const auto t = root.table("orifice");
+  if (!t) return;
+  t->allow({"center", "diameter", "width", "length"}, "[orifice]");
+  OrificeSpec o;
+  o.center = t->required_vec3("center", "the centre of the orifice [m], e.g. center = [0, 0, 0]");
+  check_inside_domain(*t, "center", "center", o.center, o.center, spec.domain);
+  const bool circle = t->has("diameter"), slot = t->has("width") || t->has("length");
+  if (circle == slot)
+    t->fail_table(circle ? "give either diameter (a circular orifice) or width and length (a slot), not both"
+                         : "give diameter = D (a circular orifice) or width = W and length = L (a slot) [m]");
+  if (circle) {
+    o.diameter = t->number("diameter", 0.0);
+    t->positive("diameter", o.diameter, "m");
+  } else {
+    o.width = t->required_number("width", "the slot's width in m (its narrow side)");
+    t->positive("width", o.width, "m");
+    o.length = t->required_number("length", "the slot's length in m");
+    t->check("length", o.length >= o.width,
+             num(o.length) + " is shorter than width = " + num(o.width) + "; width is the slot's narrow side");
+  }
+  o.loc = t->loc();
+  spec.orifice = o;
 }
 
 }  // namespace mlcg::config::detail

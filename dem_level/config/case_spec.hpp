@@ -4,6 +4,7 @@
 // key, in cases/README.md. Lengths in m, times in s (simulated), angles none.
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -71,6 +72,7 @@ struct WallSpec {                  // [[walls]]
   // cylinder / cone / disk: surface of revolution about the axis through `center`
   Vec3 center, axis{0, 0, 1};      // center, axis (need not be unit; normalised)
   double radius = 0.0;             // radius (cylinder, disk)
+  double inner_radius = 0.0;       // inner_radius (disk) in [0, radius): an annulus, e.g. a flat floor with an orifice
   double radius_bottom = 0.0;      // radius_bottom, radius_top (cone) at s = bottom / top
   double radius_top = 0.0;
   double bottom = 0.0, top = 0.0;  // bottom < top: extent along the axis, measured from center (cylinder, cone)
@@ -213,6 +215,11 @@ struct CouplingRegionSpec {        // [[coupling.regions]] one fine region insid
                                    // velocity_only_below [m]: cells below this height use pure velocity coupling
   int radius_bins = 8;             // radius_bins >= 1: size-histogram bins of the crossing coarse particles
   SourceLoc loc;
+  std::map<std::string, int> key_lines;  // line of each key written, so checks made after parsing can name it
+  SourceLoc loc_of(const std::string& key) const {
+    const auto it = key_lines.find(key);
+    return {loc.file, it == key_lines.end() ? loc.line : it->second};
+  }
 };
 
 struct CouplingSpec {              // [coupling]
@@ -225,6 +232,16 @@ struct CouplingSpec {              // [coupling]
                                    //   of the hierarchy; 0 = automatic (0.02 s)
   std::vector<CouplingRegionSpec> regions;
   SourceLoc loc;
+};
+
+struct OrificeSpec {               // [orifice]: the scene's outlet, for the coupling-region rules and
+                                   //   scripts (the solver does not use it)
+  Vec3 center;                     // center [m]
+  double diameter = 0.0;           // diameter > 0: a circular orifice; or
+  double width = 0.0;              // width, length > 0: a slot (the rules use its width)
+  double length = 0.0;
+  SourceLoc loc;
+  double size() const { return diameter > 0.0 ? diameter : width; }  // the constraining opening [m]
 };
 
 struct SwapSpec {                  // [[swap]]: replace a level's binary during a multi-level run
@@ -261,6 +278,7 @@ struct CaseSpec {
   OutputSpec output;
   StabilitySpec stability;
   TimeSpec time;
+  std::optional<OrificeSpec> orifice;    // [orifice]
   std::optional<CouplingSpec> coupling;  // [coupling]: only in multi-level cases
   LauncherSpec launcher;                 // [launcher]: only in multi-level cases
   std::vector<SwapSpec> swaps;           // [[swap]]: only in multi-level cases

@@ -38,11 +38,11 @@ AnalyticWall make_analytic(const config::WallSpec& w) {
       r.rim0 = w.rim_bottom;
       r.rim1 = w.rim_top;
       break;
-    default:  // disk: the segment from the axis to the rim, in the plane through center
-      r.rho0 = 0.0;
+    default:  // disk: the segment from the axis (or the hole's edge) to the rim, in the plane through center
+      r.rho0 = w.inner_radius;
       r.rho1 = w.radius;
       r.s0 = r.s1 = 0.0;
-      r.rim0 = false;
+      r.rim0 = w.inner_radius > 0.0;  // the hole's edge, like an orifice's rim
       r.rim1 = true;
       break;
   }

@@ -1,0 +1,260 @@
+// The coupling-region rules checked before step 1 (config/region_rules.hpp): the orifice
+// found from the scene or [orifice], each refusal with its message, the warnings, and
+// every shipped hierarchy passing. Also the walls that make an orifice: a disk with a hole.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "config/case_parser.hpp"
+#include "config/region_rules.hpp"
+#include "core/material.hpp"
+#include "scene/walls_from_case.hpp"
+
+namespace {
+
+using namespace mlcg::config;
+namespace fs = std::filesystem;
+
+const std::string kSrc = MLCG_SOURCE_DIR;
+const std::string kQuickstart = kSrc + "/cases/quickstart/mlcg.toml";
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// `text` with its only occurrence of `from` replaced by `to`.
+std::string edited(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << "missing: " << from;
+  EXPECT_EQ(text.find(from, at + 1), std::string::npos) << "more than one: " << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+int line_of(const std::string& text, const std::string& marker) {
+  const size_t at = text.find(marker);
+  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
+}
+
+// The quickstart hierarchy with one edit: a funnel of D0 = 24 mm at z = 0, 8 mm coarse beads,
+// a region of 2 cm cells from z = -0.02 to 0.04.
+std::string quickstart(const std::string& from = "", const std::string& to = "") {
+  const std::string text = read_file(kQuickstart);
+  return from.empty() ? text : edited(text, from, to);
+}
+
+RegionRuleReport rules_of(const std::string& text) { return check_region_rules(parse_case(text, kQuickstart)); }
+
+bool has(const std::vector<std::string>& v, const std::string& phrase) {
+  return std::any_of(v.begin(), v.end(), [&](const std::string& s) { return s.find(phrase) != std::string::npos; });
+}
+
+std::string all(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& m : v) s += m + "\n";
+  return s;
+}
+
+// ---- the orifice --------------------------------------------------------------------
+
+TEST(RegionRules, OrificeIsTheConeUnderTheLid) {  // silo_small: a 6 cm lid over the cone's 4 cm opening
+  const auto o = find_orifice(load_case(kSrc + "/cases/silo_small/mlcg.toml"));
+  ASSERT_TRUE(o);
+  EXPECT_DOUBLE_EQ(o->size, 0.04);
+  EXPECT_DOUBLE_EQ(o->center.z, 0.0);
+  EXPECT_EQ(o->from, "lid 'lid' over cone 'cone'");
+}
+
+TEST(RegionRules, OrificeIsTheHoleOfAFlatFloor) {  // an annulus with an off-centre hole, the lid 1 mm below
+  const auto o = find_orifice(load_case(kSrc + "/cases/hoppers/offcentre_bin/mlcg.toml"));
+  ASSERT_TRUE(o);
+  EXPECT_DOUBLE_EQ(o->size, 0.03);
+  EXPECT_DOUBLE_EQ(o->center.x, 0.02);
+  EXPECT_EQ(o->from, "lid 'lid' over the hole of disk 'floor'");
+}
+
+TEST(RegionRules, OrificeKeyWinsOverTheLid) {  // the slot under a round lid
+  const auto o = find_orifice(load_case(kSrc + "/cases/hoppers/wedge_slot/mlcg.toml"));
+  ASSERT_TRUE(o);
+  EXPECT_DOUBLE_EQ(o->size, 0.03);  // the slot's width, not the lid's 6 cm
+  EXPECT_NE(o->from.find("[orifice]"), std::string::npos) << o->from;
+}
+
+TEST(RegionRules, OrificeFromTheLowestConeWithoutALid) {
+  CaseSpec cs = parse_case(quickstart(), kQuickstart);
+  cs.events.clear();  // the lid stays: no removed wall, so the funnel's bottom is the orifice
+  const auto o = find_orifice(cs);
+  ASSERT_TRUE(o);
+  EXPECT_DOUBLE_EQ(o->size, 0.024);
+  EXPECT_EQ(o->from, "the bottom of cone 'funnel'");
+}
+
+TEST(RegionRules, NoOrificeSkipsTheOrificeRulesWithANote) {
+  CaseSpec cs = parse_case(quickstart("max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.0]"), kQuickstart);
+  cs.events.clear();
+  cs.walls.erase(cs.walls.begin() + 1);  // no funnel: nothing says where the orifice is
+  EXPECT_FALSE(find_orifice(cs));
+  const auto r = check_region_rules(cs);
+  EXPECT_TRUE(r.errors.empty()) << all(r.errors);  // a top at the orifice's height is not refused without one
+  EXPECT_TRUE(has(r.notes, "no orifice found")) << all(r.notes);
+  EXPECT_TRUE(has(r.notes, "give [orifice]"));
+}
+
+// ---- refusals -----------------------------------------------------------------------
+
+TEST(RegionRules, RefusesATopTooCloseAboveTheOrifice) {
+  const std::string text = quickstart("max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.02]");
+  const auto r = rules_of(text);
+  ASSERT_EQ(r.errors.size(), 1u) << all(r.errors);
+  const std::string& e = r.errors[0];
+  const std::string where = kQuickstart + ":" + std::to_string(line_of(text, "max = [0.04, 0.04, 0.02]")) +
+                            ": coupling.regions[0].max: ";
+  EXPECT_EQ(e.substr(0, where.size()), where) << e;
+  EXPECT_NE(e.find("z = 0.02 m, 0.83 orifice diameters above the orifice (z = 0 m, D0 = 0.024 m, from lid 'lid' "
+                   "over cone 'funnel')"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("at least 1 D0"), std::string::npos) << e;
+  EXPECT_NE(e.find("raise max z to at least 0.024 m"), std::string::npos) << e;
+}
+
+TEST(RegionRules, TopIsTheRoundedUpCellBoundary) {  // max z 0.021 rounds up to 0.04: 1.67 D0, accepted
+  const auto r = rules_of(quickstart("max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.021]"));
+  EXPECT_FALSE(has(r.errors, "orifice diameters above")) << all(r.errors);
+}
+
+TEST(RegionRules, RefusesCellsTooSmallForTheCoarseParticles) {
+  const std::string text = quickstart("cell_size = 0.02\nvelocity_only_below", "cell_size = 0.015\nvelocity_only_below");
+  const auto r = rules_of(text);
+  ASSERT_EQ(r.errors.size(), 1u) << all(r.errors);
+  const std::string where = kQuickstart + ":" + std::to_string(line_of(text, "cell_size = 0.015")) +
+                            ": coupling.regions[0].cell_size: ";
+  EXPECT_EQ(r.errors[0].substr(0, where.size()), where) << r.errors[0];
+  EXPECT_NE(r.errors[0].find("1.88 coarse diameters of level 'coarse': alpha 2 x the largest insertion diameter 4 mm "
+                             "= 8 mm"),
+            std::string::npos)
+      << r.errors[0];
+  EXPECT_NE(r.errors[0].find("give cell_size >= 0.016 m"), std::string::npos) << r.errors[0];
+}
+
+TEST(RegionRules, RefusesACoarseLevelThatCannotPassAnOrificeOutsideTheRegion) {
+  // The region lifted off the orifice: 8 mm coarse beads through 24 mm (D0 / d = 3) on their own.
+  const std::string text = quickstart("min = [-0.04, -0.04, -0.02]", "min = [-0.04, -0.04, 0.005]");
+  const auto r = rules_of(text);
+  ASSERT_EQ(r.errors.size(), 1u) << all(r.errors);
+  const std::string where = kQuickstart + ":" + std::to_string(line_of(text, "coarse = \"coarse\"")) +
+                            ": coupling.regions[0].coarse: ";
+  EXPECT_EQ(r.errors[0].substr(0, where.size()), where) << r.errors[0];
+  EXPECT_NE(r.errors[0].find("the orifice (D0 = 0.024 m, from lid 'lid' over cone 'funnel') is only 3.00 coarse diameters wide"), std::string::npos) << r.errors[0];
+  EXPECT_NE(r.errors[0].find("jamming ratio D0 / d = 5"), std::string::npos);
+  EXPECT_NE(r.errors[0].find("does not contain it"), std::string::npos);
+  EXPECT_NE(r.errors[0].find("extend the region over the orifice at [0, 0, 0]"), std::string::npos);
+}
+
+TEST(RegionRules, EveryRefusalIsReported) {
+  const std::string text = quickstart("cell_size = 0.02\nvelocity_only_below", "cell_size = 0.01\nvelocity_only_below");
+  const auto r = rules_of(edited(text, "max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.01]"));
+  EXPECT_EQ(r.errors.size(), 2u) << all(r.errors);  // cells and top, each with its own line
+}
+
+// ---- warnings -------------------------------------------------------------------------
+
+TEST(RegionRules, WarnsWhenTheCoarseLevelReliesOnTheCorrectionCells) {
+  const auto r = rules_of(quickstart());  // the shipped quickstart: 2.5 coarse diameters per cell, D0 / d = 3
+  EXPECT_TRUE(r.errors.empty()) << all(r.errors);
+  EXPECT_TRUE(has(r.warnings, "coupling.regions[0].coarse: the orifice (D0 = 0.024 m")) << all(r.warnings);
+  EXPECT_TRUE(has(r.warnings, "relies on the correction cells")) << all(r.warnings);
+  EXPECT_TRUE(has(r.warnings, "coupling.regions[0].cell_size: cell_size = 0.02 m is 2.50 coarse diameters"))
+      << all(r.warnings);
+  EXPECT_TRUE(has(r.notes, "D0 = 0.024 m, from lid 'lid' over cone 'funnel'")) << all(r.notes);
+}
+
+TEST(RegionRules, SingleLevelCaseHasNoReport) {
+  const auto r = check_region_rules(load_case(kSrc + "/cases/silo_small/reference.toml"));
+  EXPECT_TRUE(r.errors.empty() && r.warnings.empty() && r.notes.empty());
+}
+
+// ---- shipped cases --------------------------------------------------------------------
+
+TEST(RegionRules, ShippedHierarchiesPass) {
+  for (const char* c : {"silo_small/mlcg.toml", "silo_small/mlcg_no_pi.toml", "quickstart/mlcg.toml",
+                        "quickstart/mlcg3.toml", "silo_paper/mlcg.toml"}) {
+    const auto r = check_region_rules(load_case(kSrc + "/cases/" + c));
+    EXPECT_TRUE(r.errors.empty()) << c << ":\n" << all(r.errors);
+  }
+  const auto silo = check_region_rules(load_case(kSrc + "/cases/silo_small/mlcg.toml"));
+  EXPECT_TRUE(silo.warnings.empty()) << all(silo.warnings);  // 3.6 coarse diameters per cell, top 1.5 D0, D0/d 7.1
+}
+
+TEST(RegionRules, EveryHopperSceneHasItsVariantsAndPasses) {
+  int scenes = 0;
+  for (const auto& e : fs::directory_iterator(kSrc + "/cases/hoppers")) {
+    if (!e.is_directory()) continue;
+    for (const char* f : {"reference.toml", "cg2.toml", "mlcg.toml", "study.toml"})
+      EXPECT_TRUE(fs::is_regular_file(e.path() / f)) << e.path() / f;
+    for (const char* f : {"reference.toml", "cg2.toml"})  // single levels: nothing to check, nothing refused
+      EXPECT_TRUE(check_region_rules(load_case((e.path() / f).string())).errors.empty()) << e.path() / f;
+    const CaseSpec cs = load_case((e.path() / "mlcg.toml").string());
+    const auto r = check_region_rules(cs);
+    EXPECT_TRUE(r.errors.empty()) << e.path() << ":\n" << all(r.errors);
+    EXPECT_TRUE(r.warnings.empty()) << e.path() << ":\n" << all(r.warnings);  // the family is sized to pass clean
+    EXPECT_TRUE(find_orifice(cs)) << e.path();
+    ++scenes;
+  }
+  EXPECT_GE(scenes, 6);
+}
+
+// ---- [orifice] and the disk with a hole ----------------------------------------------------
+
+TEST(RegionRules, OrificeKeyReadAndChecked) {
+  const std::string base = quickstart("[coupling]", "[orifice]\ncenter = [0.0, 0.0, 0.0]\nwidth = 0.03\nlength = 0.05\n\n[coupling]");
+  const CaseSpec cs = parse_case(base, kQuickstart);
+  ASSERT_TRUE(cs.orifice);
+  EXPECT_DOUBLE_EQ(cs.orifice->size(), 0.03);
+  EXPECT_DOUBLE_EQ(cs.orifice->length, 0.05);
+  const auto refused = [&](const std::string& from, const std::string& to, const std::string& phrase) {
+    try {
+      parse_case(edited(base, from, to), kQuickstart);
+      ADD_FAILURE() << "accepted: " << to;
+    } catch (const CaseError& e) {
+      EXPECT_NE(std::string(e.what()).find(phrase), std::string::npos) << e.what();
+    }
+  };
+  refused("length = 0.05", "length = 0.02", "orifice.length: 0.02 is shorter than width = 0.03");
+  refused("width = 0.03\nlength = 0.05", "diameter = 0.03\nwidth = 0.03", "not both");
+  refused("width = 0.03\nlength = 0.05", "", "give diameter = D");
+  refused("center = [0.0, 0.0, 0.0]\nwidth", "center = [0.0, 0.0, 0.5]\nwidth", "orifice.center: z = 0.5 is outside the domain");
+  refused("width = 0.03\n", "width = 0.03\ndiametr = 0.03\n", "orifice.diametr: unknown key");
+}
+
+TEST(RegionRules, DiskWithAHoleIsAFloorWithAnOrifice) {
+  const std::string text = read_file(kSrc + "/cases/hoppers/flat_bin/reference.toml");
+  const CaseSpec cs = parse_case(text, kSrc + "/cases/hoppers/flat_bin/reference.toml");
+  const mlcg::MaterialTable mt({{"particle", 2.5e7, 0.25, 1000.0}, {"steel", 2.5e7, 0.25, 7800.0}});
+  mlcg::WallSet walls = mlcg::walls_from_case(cs, mt);
+  for (size_t w = 0; w < walls.walls(); ++w) walls.set_active(w, walls.info(w).name != "lid");  // opened
+  const double r = 1.4e-3;
+  EXPECT_FALSE(walls.touches({0.0, 0.0, 0.0}, r));           // in the hole: falls through
+  EXPECT_FALSE(walls.crosses({0.0, 0.0, 0.01}, {0.0, 0.0, -0.01}));
+  EXPECT_TRUE(walls.touches({0.03, 0.0, 0.001}, r));         // on the floor
+  EXPECT_TRUE(walls.crosses({0.03, 0.0, 0.01}, {0.03, 0.0, -0.01}));
+  EXPECT_TRUE(walls.touches({0.0155, 0.0, 0.0}, r));         // at the hole's edge: the rim holds it
+  EXPECT_FALSE(walls.touches({0.013, 0.0, 0.0}, r));         // 2 mm inside the edge: clear
+  try {
+    parse_case(edited(text, "inner_radius = 0.015", "inner_radius = 0.05"), "flat_bin.toml");
+    ADD_FAILURE() << "a hole as large as the disk was accepted";
+  } catch (const CaseError& e) {
+    EXPECT_NE(std::string(e.what()).find("walls[1].inner_radius: 0.05 is outside [0, radius = 0.05)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
