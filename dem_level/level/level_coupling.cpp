@@ -174,6 +174,7 @@ void Level::coupling_begin_step() {
     of[static_cast<size_t>(it - c.grids.begin())] = &g;
   }
   PhaseTimer t(times_.coupling);
+  const size_t born_from = p_.n_local();  // ghosts are detached before any insertion: local = all
   for (size_t l = 0; l < c.grids.size(); ++l) {
     uint64_t count = 0;
     double mass = 0.0;
@@ -218,6 +219,9 @@ void Level::coupling_begin_step() {
       throw CouplingStop(e.what());
     }
   }
+  // A middle level of a hierarchy: what the coupler inserted may lie inside the region this level
+  // feeds as the coarse level. It enters that region by birth, counted after the intervals' resets.
+  for (size_t i = born_from; i < p_.n_local(); ++i) coupling_born(i);
 }
 
 void Level::check_inserted_walls(Coupled& c, const bus::CouplingGeometry& geo, size_t first) {
