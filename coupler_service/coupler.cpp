@@ -153,8 +153,7 @@ std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vecto
     r.log.traction.assign(nt, 0.0);
     for (size_t f = 0; f < nf; ++f) {
       const int c = static_cast<int>(r.geo.cell_of_face(f));
-      const bus::Side side = r.geo.side_of_face(f);
-      const int nn = side == bus::Side::Top ? 2 : side <= bus::Side::XHi ? 0 : 1;  // xx yy zz
+      const int nn = r.geo.normal_axis(f);  // xx yy zz
       const double set = cs.cell_stress(6 * c + nn), pv = fs.cell_stress(6 * c + nn);
       const bool active = cs.cell_volume_fraction(c) >= r.cfg.phi_min && fs.cell_volume_fraction(c) >= r.cfg.phi_min;
       if (active) r.pi[f].update(set, pv, cfg_.interval);

@@ -36,17 +36,19 @@ std::vector<uint32_t> clipped_cells(const WallSet& walls, const Vec3& origin, do
 
 constexpr int kFaceSamples = 8;  // per side of a face
 
-// Share of the n^2 sample points of a face, moved `out` along its outward normal, reachable from `inside`.
-double open_share(const WallSet& walls, const bus::CouplingGeometry& geo, size_t f, const Vec3& inside, double out) {
+// Share of the n^2 sample points of side s of active cell c, moved `out` along the outward normal,
+// reachable from `inside`.
+double open_share(const WallSet& walls, const bus::CouplingGeometry& geo, size_t c, bus::Side s, const Vec3& inside,
+                  double out) {
   constexpr int n = kFaceSamples;
   Vec3 lo, hi;
-  geo.face_slab(f, 0.0, lo, hi);
-  const Vec3 shift = -out * geo.face_inward(f);
+  geo.cell_slab(c, s, 0.0, lo, hi);
+  const Vec3 shift = -out * bus::CouplingGeometry::inward(s);
   int in = 0;
   for (int q = 0; q < n * n; ++q) {
     const double u = (q % n + 0.5) / n, v = (q / n + 0.5) / n;
     Vec3 x = lo;  // u, v across the face's two in-plane axes
-    if (geo.is_top(f)) x += Vec3{u * (hi.x - lo.x), v * (hi.y - lo.y), 0.0};
+    if (s == bus::Side::Top) x += Vec3{u * (hi.x - lo.x), v * (hi.y - lo.y), 0.0};
     else if (lo.x == hi.x) x += Vec3{0.0, u * (hi.y - lo.y), v * (hi.z - lo.z)};
     else x += Vec3{u * (hi.x - lo.x), 0.0, v * (hi.z - lo.z)};
     in += !walls.crosses(inside, x + shift);
@@ -63,12 +65,8 @@ void open_sides(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& inside)
     const uint32_t flat = geo.flat(c), i = flat % gr.nx(), j = (flat / gr.nx()) % gr.ny();
     const bool on[4] = {i == 0, i == gr.nx() - 1, j == 0, j == gr.ny() - 1};
     for (uint32_t d = 0; d < 4; ++d) {
-      if (!on[d]) continue;
-      bus::CouplingGrid one = gr;  // this face alone, to sample it
-      one.clear_side_faces();
-      one.add_side_faces(static_cast<uint32_t>(4 * c + d));
-      const bus::CouplingGeometry g1(one);
-      if (open_share(walls, g1, g1.faces() - 1, inside, eps) > 0.0) gr.add_side_faces(static_cast<uint32_t>(4 * c + d));
+      if (on[d] && open_share(walls, geo, c, static_cast<bus::Side>(d + 1), inside, eps) > 0.0)
+        gr.add_side_faces(static_cast<uint32_t>(4 * c + d));
     }
   }
 }
@@ -87,7 +85,8 @@ void inside_fractions(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& i
     gr.add_cell_inside(std::max(floor, static_cast<double>(in) / (n * n * n)));
   }
   for (size_t f = 0; f < geo.faces(); ++f)  // just inside a top face, just outside a side face (both open)
-    gr.add_face_inside(std::max(floor, open_share(walls, geo, f, inside, (geo.is_top(f) ? -1e-6 : 1e-6) * h)));
+    gr.add_face_inside(std::max(floor, open_share(walls, geo, geo.cell_of_face(f), geo.side_of_face(f), inside,
+                                                          (geo.is_top(f) ? -1e-6 : 1e-6) * h)));
 }
 
 }  // namespace

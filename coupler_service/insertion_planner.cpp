@@ -126,7 +126,7 @@ std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<
     std::mt19937_64 rng(mix(prm_.seed ^ mix(interval * 0x100000001b3ULL + f)));
     Vec3 slab_lo, slab_hi;
     geo_.face_slab(f, prm_.insert_depth, slab_lo, slab_hi);
-    const int axis = geo_.is_top(f) ? 2 : geo_.side_of_face(f) <= bus::Side::XHi ? 0 : 1;  // along the normal
+    const int axis = geo_.normal_axis(f);
     for (;;) {
       if (s.next_radius <= 0.0) s.next_radius = draw_radius(s, rng);
       const double r = s.next_radius, m = mass_of(r);

@@ -20,8 +20,6 @@ ControllerForces::ControllerForces(const bus::CouplingGeometry& geo)
     : geo_(geo), top_(geo.top()), depth_(geo.grid().fade_depth()), wsum_(geo.faces(), 0.0) {
   // The traction acts on the part of a face inside the walls: a face half cut by the cone carries half.
   for (size_t f = 0; f < geo.faces(); ++f) area_.push_back(geo.cell_size() * geo.cell_size() * geo.inside_area(f));
-  for (size_t f = geo.top_faces(); f < geo.faces(); ++f)
-    if (std::find(sides_.begin(), sides_.end(), geo.side_of_face(f)) == sides_.end()) sides_.push_back(geo.side_of_face(f));
 }
 
 void ControllerForces::set_traction(std::vector<double> traction, std::vector<double> speed_limit) {
@@ -75,8 +73,8 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
     sums[nf] += p.radius[i];
     sums[nf + 1] += 1.0;
   }
-  for (size_t i = 0; i < p.n_local() && !sides_.empty(); ++i)
-    for (const bus::Side sd : sides_) {
+  for (size_t i = 0; i < p.n_local() && !geo_.open_sides().empty(); ++i)
+    for (const bus::Side sd : geo_.open_sides()) {
       int f = -1;
       const double w = side_weight(p.x[i], p.radius[i], sd, f);
       if (f >= 0) sums[static_cast<size_t>(f)] += w;
@@ -92,9 +90,7 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
 
 double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, int& face) const {
   face = -1;
-  const Vec3 lo = geo_.box_lo(), hi = geo_.box_hi();
-  const double s = side == bus::Side::XLo ? x.x - lo.x : side == bus::Side::XHi ? hi.x - x.x
-                 : side == bus::Side::YLo ? x.y - lo.y : hi.y - x.y;  // depth inside the side
+  const double s = geo_.depth_inside(side, x);
   if (!(s >= 0.0 && s < depth_)) return 0.0;
   const int c = geo_.locate(x);
   if (c < 0) return 0.0;
@@ -103,11 +99,8 @@ double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, in
 }
 
 double ControllerForces::side_distance(const Vec3& x) const {
-  const Vec3 lo = geo_.box_lo(), hi = geo_.box_hi();
   double d = 1e300;
-  for (const bus::Side sd : sides_)
-    d = std::min(d, sd == bus::Side::XLo ? x.x - lo.x : sd == bus::Side::XHi ? hi.x - x.x
-                  : sd == bus::Side::YLo ? x.y - lo.y : hi.y - x.y);
+  for (const bus::Side sd : geo_.open_sides()) d = std::min(d, geo_.depth_inside(sd, x));
   return d;
 }
 
@@ -115,7 +108,7 @@ void ControllerForces::refresh(const Particles& p, double band) {
   near_.clear();
   for (size_t i = 0; i < p.n_local(); ++i) {
     const double s = top_ - p.x[i].z;
-    const bool near_side = !sides_.empty() && std::fabs(side_distance(p.x[i]) - 0.5 * depth_) < 0.5 * depth_ + band;
+    const bool near_side = !geo_.open_sides().empty() && std::fabs(side_distance(p.x[i]) - 0.5 * depth_) < 0.5 * depth_ + band;
     if ((s > -band && s < depth_ + band) || near_side) near_.push_back(static_cast<uint32_t>(i));
   }
   near_valid_ = true;
@@ -134,7 +127,7 @@ void ControllerForces::apply_sides(Particles& p) const {
   const size_t m = near_valid_ ? near_.size() : p.n_local();
   for (size_t q = 0; q < m; ++q) {
     const size_t i = near_valid_ ? near_[q] : q;
-    for (const bus::Side sd : sides_) {
+    for (const bus::Side sd : geo_.open_sides()) {
       int f = -1;
       const double w = side_weight(p.x[i], p.radius[i], sd, f);
       if (f < 0) continue;
@@ -165,7 +158,7 @@ void ControllerForces::apply(Particles& p) const {
       p.f[i] += F;
     }
   }
-  if (traction_on_ && !sides_.empty()) apply_sides(p);
+  if (traction_on_ && !geo_.open_sides().empty()) apply_sides(p);
   if (accel_on_) {
     for (size_t i = 0; i < n; ++i) {
       const int c = geo_.locate(p.x[i]);

@@ -56,7 +56,6 @@ class ControllerForces {
   std::vector<double> traction_, vmax_, wsum_;
   std::vector<Vec3> accel_;
   bool traction_on_ = false, accel_on_ = false;
-  std::vector<bus::Side> sides_;  // box sides with open faces
   std::vector<uint32_t> near_;  // refresh(): candidates for the traction
   bool near_valid_ = false;
 };

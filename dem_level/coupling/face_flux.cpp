@@ -17,11 +17,9 @@ FaceFlux::FaceFlux(const bus::CouplingGeometry& geo)
       plane_(Vec3{0.0, 0.0, geo.top()}, Vec3{0.0, 0.0, -1.0}) {
   nb_ = edges_.size() >= 2 ? edges_.size() - 1 : 1;
   const Vec3 lo = geo.box_lo(), hi = geo.box_hi();
-  for (size_t f = geo.top_faces(); f < nf_; ++f) {
-    const bus::Side s = geo.side_of_face(f);
-    if (std::any_of(sides_.begin(), sides_.end(), [&](const SidePlane& p) { return p.side == s; })) continue;
+  for (const bus::Side s : geo.open_sides()) {
     const bool low = s == bus::Side::XLo || s == bus::Side::YLo;
-    sides_.push_back({s, PlaneCrossings(low ? lo : hi, geo.face_inward(f))});
+    sides_.push_back({s, PlaneCrossings(low ? lo : hi, bus::CouplingGeometry::inward(s))});
   }
   reset();
 }

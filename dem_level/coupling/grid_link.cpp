@@ -13,9 +13,6 @@ const char* to_string(Role r) { return r == Role::Coarse ? "coarse" : "fine"; }
 GridLink::GridLink(uint32_t index, const bus::CouplingGrid& grid, Role role)
     : index_(index), role_(role), geo_(grid), top_(geo_.top()), lo_(geo_.box_lo()), hi_(geo_.box_hi()), flux_(geo_),
       cells_(geo_), forces_(geo_), returned_(geo_.faces(), 0.0) {
-  for (size_t f = geo_.top_faces(); f < geo_.faces(); ++f)
-    if (std::find(open_sides_.begin(), open_sides_.end(), geo_.side_of_face(f)) == open_sides_.end())
-      open_sides_.push_back(geo_.side_of_face(f));
   if (role == Role::Coarse && grid.radius_bins_size() < 2)
     throw std::invalid_argument("grid " + std::to_string(index) + ": radius_bins has " +
                                 std::to_string(grid.radius_bins_size()) +
@@ -103,9 +100,8 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
       if (x.z < lo_.z - r_max || x.z > zhi || x.x < lo_.x - r_max || x.x > hi_.x + r_max || x.y < lo_.y - r_max ||
           x.y > hi_.y + r_max)
         return false;
-      for (const bus::Side s : open_sides_) {
-        const double d = s == bus::Side::XLo ? x.x - lo_.x : s == bus::Side::XHi ? hi_.x - x.x
-                       : s == bus::Side::YLo ? x.y - lo_.y : hi_.y - x.y;  // inward from the side
+      for (const bus::Side s : geo_.open_sides()) {
+        const double d = geo_.depth_inside(s, x);
         if (d >= -r_max && d <= depth + r_max) return true;
       }
       return false;
@@ -115,7 +111,7 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
     for (size_t i = 0; i < p.n_local(); ++i) {
       const Vec3& x = p.x[i];
       const bool below_top = !(x.z < zlo || x.z > zhi || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y);
-      if (!below_top && !(open_sides_.size() && near_open_side(x))) continue;
+      if (!below_top && !(!geo_.open_sides().empty() && near_open_side(x))) continue;
       const double q[4] = {x.x, x.y, x.z, p.radius[i]};
       w.put_n(q, 4);
     }

@@ -94,7 +94,6 @@ class GridLink {
   double inserted_mass_ = 0.0;
   double removed_ = 0.0, removed_mass_ = 0.0;  // this rank's, this interval
   std::vector<double> returned_;               // per face, this rank's, this interval [kg]
-  std::vector<bus::Side> open_sides_;          // box sides with boundary faces
 };
 
 }  // namespace mlcg::coupling

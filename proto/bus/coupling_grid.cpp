@@ -42,6 +42,8 @@ CouplingGeometry::CouplingGeometry(const CouplingGrid& g) : g_(g) {
     side_lookup_[code] = static_cast<int>(faces_.size());
     faces_.push_back(c);
     side_.push_back(static_cast<Side>(d + 1));
+    if (std::find(open_sides_.begin(), open_sides_.end(), side_.back()) == open_sides_.end())
+      open_sides_.push_back(side_.back());
   }
   const auto fractions = [](const auto& a, size_t want, const char* what) {
     if (a.size() != 0 && static_cast<size_t>(a.size()) != want)
@@ -81,8 +83,8 @@ int CouplingGeometry::locate(const Vec3& x) const {
   return lookup_[i + g_.nx() * (j + g_.ny() * k)];
 }
 
-Vec3 CouplingGeometry::face_inward(size_t f) const {
-  switch (side_[f]) {
+Vec3 CouplingGeometry::inward(Side s) {
+  switch (s) {
     case Side::XLo: return {1.0, 0.0, 0.0};
     case Side::XHi: return {-1.0, 0.0, 0.0};
     case Side::YLo: return {0.0, 1.0, 0.0};
@@ -91,11 +93,11 @@ Vec3 CouplingGeometry::face_inward(size_t f) const {
   }
 }
 
-void CouplingGeometry::face_slab(size_t f, double depth, Vec3& lo, Vec3& hi) const {
+void CouplingGeometry::cell_slab(size_t c, Side s, double depth, Vec3& lo, Vec3& hi) const {
   const double h = g_.cell_size();
-  lo = cell_lo(faces_[f]);
+  lo = cell_lo(c);
   hi = lo + Vec3{h, h, h};
-  switch (side_[f]) {
+  switch (s) {
     case Side::Top:
       hi.z = top();  // the very same number as the boundary surface's height
       lo.z = hi.z - depth;
@@ -104,6 +106,17 @@ void CouplingGeometry::face_slab(size_t f, double depth, Vec3& lo, Vec3& hi) con
     case Side::XHi: lo.x = hi.x - depth; break;
     case Side::YLo: hi.y = lo.y + depth; break;
     case Side::YHi: lo.y = hi.y - depth; break;
+  }
+}
+
+double CouplingGeometry::depth_inside(Side s, const Vec3& x) const {
+  const Vec3 lo = box_lo(), hi = box_hi();
+  switch (s) {
+    case Side::XLo: return x.x - lo.x;
+    case Side::XHi: return hi.x - x.x;
+    case Side::YLo: return x.y - lo.y;
+    case Side::YHi: return hi.y - x.y;
+    default: return top() - x.z;
   }
 }
 

@@ -32,11 +32,20 @@ class CouplingGeometry {
   size_t top_faces() const { return top_faces_; }  // faces [0, top_faces()) are top faces
   Side side_of_face(size_t f) const { return side_[f]; }
   bool is_top(size_t f) const { return f < top_faces_; }
-  Vec3 face_inward(size_t f) const;  // unit normal into the region
+  static Vec3 inward(Side s);  // unit normal into the region of a face on side s
+  Vec3 face_inward(size_t f) const { return inward(side_[f]); }
+  int normal_axis(size_t f) const { return axis_of(side_[f]); }  // 0, 1, 2: x, y, z
+  static int axis_of(Side s) { return s == Side::Top ? 2 : s <= Side::XHi ? 0 : 1; }
   // The box of points within `depth` inside face f (the face's square times depth along its normal).
-  void face_slab(size_t f, double depth, Vec3& lo, Vec3& hi) const;
+  void face_slab(size_t f, double depth, Vec3& lo, Vec3& hi) const { cell_slab(faces_[f], side_[f], depth, lo, hi); }
+  // The same for side s of active cell c, a boundary face or not.
+  void cell_slab(size_t c, Side s, double depth, Vec3& lo, Vec3& hi) const;
   // Boundary face on side s of active cell c, or -1.
   int side_face(size_t c, Side s) const;
+  // The box sides that have boundary faces, in the order of their first face.
+  const std::vector<Side>& open_sides() const { return open_sides_; }
+  // How far x lies inside the box's side s (negative: beyond it); for Side::Top, below the top.
+  double depth_inside(Side s, const Vec3& x) const;
   uint32_t flat(size_t c) const { return cells_[c]; }
   bool is_transition(size_t c) const { return face_of_cell_[c] >= 0; }
   int face_of_cell(size_t c) const { return face_of_cell_[c]; }
@@ -69,6 +78,7 @@ class CouplingGeometry {
   std::vector<size_t> faces_;  // cell of each face
   std::vector<Side> side_;     // side of each face
   size_t top_faces_ = 0;
+  std::vector<Side> open_sides_;
   std::vector<int> side_lookup_;  // 4 per active cell: its side faces (XLo, XHi, YLo, YHi) or -1
   std::vector<int> lookup_;  // flat index -> active cell or -1
 };
