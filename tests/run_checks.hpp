@@ -79,8 +79,9 @@ inline double check_region(const fs::path& dir, const nlohmann::json& s, int r, 
   EXPECT_NEAR(b["inserted_mass_kg"].get<double>(), inserted, 1e-12 * inserted);
   EXPECT_EQ(b["inserted"].get<int64_t>(), s["coupling"]["regions"][r]["inserted_particles"].get<int64_t>());
   // A middle level of three also hands mass back through the region it feeds: compare only a finest level.
-  if (fine_name == s.value("probes_from_level", fine_name))
+  if (fine_name == s.value("probes_from_level", fine_name)) {
     EXPECT_NEAR(by["boundary_surface"]["mass_kg"].get<double>(), returned, 1e-12 * std::max(returned, 1e-30));
+  }
 
   const double t_open = first_event(fine);
   const auto log = read_csv(dir / "coupling" / ("region" + std::to_string(r) + ".csv"));

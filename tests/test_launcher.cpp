@@ -134,18 +134,19 @@ TEST(Launcher, StartsAMultiRankLevelThroughMpirun) {
 // A whole two-level run (coupler + two dem_level processes) on the small quickstart hopper: the mass
 // handed from the coarse to the fine level is exact per face, the fine level's balance is exact,
 // nothing overlaps on insertion, and the fine level carries the discharge.
-fs::path run_hierarchy_case(const std::string& name, const std::string& tag) {
+// `path`: the case, relative to the source tree.
+fs::path run_hierarchy_case(const std::string& path, const std::string& tag) {
   const fs::path dir = fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
-  EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/quickstart/" + name + " --out " + dir.string() + " --quiet > " +
-                dir.string() + ".out 2>&1"),
+  EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/" + path + " --out " + dir.string() + " --quiet > " + dir.string() +
+                ".out 2>&1"),
             0)
       << "see " << dir.string() << ".out";
   return dir;
 }
 
 TEST(MlcgRun, TwoLevelHopperHandsMassOverExactlyAndDischargesThroughTheFineLevel) {
-  const fs::path dir = run_hierarchy_case("mlcg.toml", "2lvl");
+  const fs::path dir = run_hierarchy_case("cases/quickstart/mlcg.toml", "2lvl");
   const auto s = read_json(dir / "summary.json");
   EXPECT_EQ(s["status"], "completed");
   ASSERT_EQ(s["levels"].size(), 2u);
@@ -162,7 +163,7 @@ TEST(MlcgRun, TwoLevelHopperHandsMassOverExactlyAndDischargesThroughTheFineLevel
 }
 
 TEST(MlcgRun, ThreeLevelHopperNestsTwoRegionsThroughTheMiddleLevel) {
-  const fs::path dir = run_hierarchy_case("mlcg3.toml", "3lvl");
+  const fs::path dir = run_hierarchy_case("cases/quickstart/mlcg3.toml", "3lvl");
   const auto s = read_json(dir / "summary.json");
   EXPECT_EQ(s["status"], "completed");
   ASSERT_EQ(s["levels"].size(), 3u);
@@ -181,12 +182,8 @@ TEST(MlcgRun, ThreeLevelHopperNestsTwoRegionsThroughTheMiddleLevel) {
 // handed back to its face, never lost; and, pressed by the side faces' traction, the fine region holds
 // close to the coarse level's mass there.
 TEST(MlcgOpenSides, ARegionWithOpenSidesBooksBothDirectionsAndHandsFineMassBack) {
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_open_sides_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  ASSERT_EQ(run(kBin + "/mlcg run " + kSrc + "/tests/data/cases/open_side_bin.toml --out " + dir.string() +
-                " --quiet > " + dir.string() + ".out 2>&1"),
-            0)
-      << "see " << dir.string() << ".out";
+  const fs::path dir = run_hierarchy_case("tests/data/cases/open_side_bin.toml", "open_sides");
+  ASSERT_FALSE(HasFailure());
   const auto s = read_json(dir / "summary.json");
   const auto& region = s["coupling"]["regions"][0];
   EXPECT_EQ(region["side_faces"].get<int>(), 16);  // 2 x 2 x 2 cells: 2 per side per layer
@@ -221,12 +218,8 @@ TEST(MlcgOpenSides, ARegionWithOpenSidesBooksBothDirectionsAndHandsFineMassBack)
 // checks every particle it receives against its own walls (check_region: no centre outside them, no
 // wall overlap) and the filling runs through.
 TEST(MlcgJunction, FineParticlesArePlacedInsideTheWallsBelowAJunction) {
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_junction_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  ASSERT_EQ(run(kBin + "/mlcg run " + kSrc + "/tests/data/cases/junction_hopper.toml --out " + dir.string() +
-                " --quiet > " + dir.string() + ".out 2>&1"),
-            0)
-      << "see " << dir.string() << ".out";
+  const fs::path dir = run_hierarchy_case("tests/data/cases/junction_hopper.toml", "junction");
+  ASSERT_FALSE(HasFailure());
   const auto s = read_json(dir / "summary.json");
   EXPECT_EQ(s["status"], "completed");
   const auto grid = s["coupling"]["regions"][0];
@@ -328,7 +321,7 @@ fs::path case_with(const std::string& extra, const std::string& tag) {
 }  // namespace
 
 TEST(MlcgRecovery, InterruptThenResumeGivesTheUninterruptedResult) {
-  const fs::path ref = run_hierarchy_case("mlcg.toml", "ref");
+  const fs::path ref = run_hierarchy_case("cases/quickstart/mlcg.toml", "ref");
   const fs::path dir = fs::temp_directory_path() / ("mlcg_int_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
