@@ -38,17 +38,25 @@ struct PiController {
   void hold() { integral = 0.0; output = 0.0; }
 };
 
-// Proportional controller pushing a coarse correction cell's mean velocity
-// toward the target from the fine level. Output: an acceleration [m/s^2] the
-// coarse level applies to every particle in the cell, |a| <= limit.
+// PI controller pushing a coarse correction cell's mean velocity toward the
+// target from the fine level. Output: an acceleration [m/s^2] the coarse level
+// applies to every particle in the cell, |a| <= limit. The integral removes the
+// lag a proportional term alone leaves where the coarse particles resist the
+// correction (they jam at an orifice the fine ones pass: steep_cone -4.8 %
+// without it, -1.0 % with it). The caller keeps one integral per cell; it does
+// not grow while the output is saturated (anti-windup).
 struct VelocityController {
-  double gain = 500.0;  // 1/s
-  double limit = 49.05; // m/s^2
+  double gain = 500.0;   // 1/s
+  double ki = 25000.0;   // 1/s^2; <= gain^2 / 4 keeps the loop on an integrator plant overdamped
+  double limit = 49.05;  // m/s^2
 
-  Vec3 update(const Vec3& target, const Vec3& coarse) const {
-    Vec3 a = gain * (target - coarse);
+  Vec3 update(const Vec3& target, const Vec3& coarse, Vec3& integral, double dt) const {
+    const Vec3 e = target - coarse;
+    const Vec3 trial = integral + e * dt;
+    Vec3 a = gain * e + ki * trial;
     const double n = norm(a);
     if (n > limit) a = a * (limit / n);
+    else integral = trial;
     return a;
   }
 };

@@ -17,7 +17,7 @@ std::vector<double> to_vector(const google::protobuf::RepeatedField<double>& a) 
 }  // namespace
 
 Coupler::Region::Region(const RegionConfig& c, const FitsGeometry& fits)
-    : cfg(c), geo(c.grid), planner(geo, c.planner, fits), pi(geo.faces(), c.pi) {}
+    : cfg(c), geo(c.grid), planner(geo, c.planner, fits), pi(geo.faces(), c.pi), vint(geo.cells()) {}
 
 Coupler::Coupler(CouplerConfig cfg, FitsGeometry fits) : cfg_(std::move(cfg)) {
   if (cfg_.levels.size() < 2) throw std::invalid_argument("coupler: a hierarchy needs at least two levels");
@@ -167,7 +167,7 @@ std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vecto
       fine.add_speed_limit(cs.cell_max_speed(c));
     }
 
-    // Correction cells: P controller toward the fine velocity, for the coarse level.
+    // Correction cells: PI controller toward the fine velocity, for the coarse level.
     bus::GridCommands& coarse = *out[lc].add_grids();
     coarse.set_grid(static_cast<uint32_t>(ri));
     const size_t nc = r.geo.cells();
@@ -181,7 +181,9 @@ std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vecto
         const bool mass_flow = r.cfg.correct == RegionConfig::Correct::MassFlow &&
                                r.geo.cell_centre(c).z >= r.cfg.velocity_only_below;
         const Vec3 target = correction_target(vec_at(fs.cell_velocity(), c), phi_f, phi_c, mass_flow);
-        a = r.cfg.velocity.update(target, vec_at(cs.cell_velocity(), c));
+        a = r.cfg.velocity.update(target, vec_at(cs.cell_velocity(), c), r.vint[c], cfg_.interval);
+      } else {
+        r.vint[c] = Vec3{};  // an uncorrected cell starts afresh
       }
       r.log.acceleration[c] = a;
       coarse.add_acceleration(a.x);

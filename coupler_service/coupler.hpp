@@ -7,7 +7,7 @@
 // Per region (a coarse level over a fine one):
 //   coarse face crossings  -> InsertionPlanner -> fine insertion list
 //   coarse / fine sigma_zz -> PI per transition cell -> fine traction, speed limit
-//   fine / coarse velocity -> P per correction cell -> coarse acceleration
+//   fine / coarse velocity -> PI per correction cell -> coarse acceleration
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -90,6 +90,7 @@ class Coupler {
     bus::CouplingGeometry geo;
     InsertionPlanner planner;
     std::vector<PiController> pi;  // per transition cell (face order)
+    std::vector<Vec3> vint;        // per active cell: the velocity controller's integral [m/s s]
     RegionLog log;
     std::vector<Insert> last;       // the latest insertion list sent
   };

@@ -47,6 +47,7 @@ void Coupler::save(bus::CouplerCheckpoint& out) const {
       rc.add_pi_integral(pi.integral);
       rc.add_pi_output(pi.output);
     }
+    for (const Vec3& v : r->vint) put(rc.mutable_velocity_integral(), v);
     for (const auto& p : r->last) {
       for (double v : {p.x.x, p.x.y, p.x.z, p.r, p.v.x, p.v.y, p.v.z}) rc.add_last_insert(v);
       rc.add_last_insert_face(p.face);
@@ -91,6 +92,14 @@ void Coupler::restore(const bus::CouplerCheckpoint& in) {
       r.pi[f].integral = rc.pi_integral(static_cast<int>(f));
       r.pi[f].output = rc.pi_output(static_cast<int>(f));
     }
+    // Checkpoints written before the velocity controller had an integral carry none: it restarts at 0.
+    const auto& vi = rc.velocity_integral();
+    if (!vi.empty() && static_cast<size_t>(vi.size()) != 3 * r.vint.size())
+      throw std::invalid_argument(where + " has " + std::to_string(vi.size() / 3) +
+                                  " velocity integrals, the case's grid has " + std::to_string(r.vint.size()) +
+                                  " active cells");
+    for (size_t c = 0; c < r.vint.size(); ++c)
+      r.vint[c] = vi.empty() ? Vec3{} : Vec3{vi[3 * c], vi[3 * c + 1], vi[3 * c + 2]};
     r.last.clear();
     for (int i = 0; i + 6 < rc.last_insert_size(); i += 7) {
       const auto& a = rc.last_insert();

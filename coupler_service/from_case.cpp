@@ -179,6 +179,7 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
     rc.pi.ki = rs.ki;
     rc.pi.limit = rs.traction_limit > 0.0 ? rs.traction_limit : density * g * height;
     rc.velocity.gain = rs.velocity_gain;
+    rc.velocity.ki = rs.velocity_ki;
     rc.velocity.limit = rs.acceleration_limit > 0.0 ? rs.acceleration_limit : 5.0 * g;
     rc.correct = rs.correct == "none" ? RegionConfig::Correct::None
                  : rs.correct == "velocity" ? RegionConfig::Correct::Velocity

@@ -86,6 +86,7 @@ TEST(CaseParser, TwoLevelCaseTakesCouplingDefaults) {
   EXPECT_DOUBLE_EQ(r.traction_limit, 0.0);
   EXPECT_EQ(r.correct, "mass_flow");
   EXPECT_DOUBLE_EQ(r.velocity_gain, 500.0);
+  EXPECT_DOUBLE_EQ(r.velocity_ki, 25000.0);
   EXPECT_DOUBLE_EQ(r.acceleration_limit, 0.0);
   EXPECT_TRUE(std::isinf(r.velocity_only_below) && r.velocity_only_below < 0.0);
   EXPECT_EQ(r.radius_bins, 8);
@@ -143,6 +144,7 @@ TEST(CaseParser, CouplingEveryKeyRead) {
   EXPECT_DOUBLE_EQ(r.traction_limit, 500.0);
   EXPECT_EQ(r.correct, "velocity");
   EXPECT_DOUBLE_EQ(r.velocity_gain, 20.0);
+  EXPECT_DOUBLE_EQ(r.velocity_ki, 40.0);  // follows the gain: gain^2 / 10
   EXPECT_DOUBLE_EQ(r.acceleration_limit, 40.0);
   EXPECT_DOUBLE_EQ(r.velocity_only_below, 0.25);
   EXPECT_EQ(r.radius_bins, 4);
@@ -311,6 +313,8 @@ TEST(CaseParserErrors, CouplingValueRanges) {
   bad("correct = \"mass-flow\"", "correct", "(did you mean 'mass_flow'?); allowed: mass_flow, velocity, none");
   bad("velocity_gain = 0", "velocity_gain", "0 is not > 0");
   bad("velocity_gain = 1e5", "velocity_gain", "would overshoot; give at most 31250 1/s");
+  bad("velocity_ki = -1", "velocity_ki", "is negative");
+  bad("velocity_ki = 62501", "velocity_ki", "is above velocity_gain^2 / 4 = 62500 1/s^2, where the correction oscillates");
   bad("acceleration_limit = -1", "acceleration_limit", "is negative");
   bad("radius_bins = 0", "radius_bins", "give an integer >= 1");
   bad("radius_bins = 8.0", "radius_bins", "expected an integer, found float");

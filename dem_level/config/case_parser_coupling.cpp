@@ -93,7 +93,7 @@ double resolve_interval(const Table& t, double interval, const std::vector<Level
 
 CouplingRegionSpec read_region(const Table& r, const CaseSpec& spec, const Names& names) {
   r.allow({"coarse", "fine", "min", "max", "cell_size", "inside", "insert_depth", "fade", "kp", "ki",
-           "traction_limit", "correct", "velocity_gain", "acceleration_limit", "velocity_only_below", "radius_bins"});
+           "traction_limit", "correct", "velocity_gain", "velocity_ki", "acceleration_limit", "velocity_only_below", "radius_bins"});
   CouplingRegionSpec g;
   g.coarse = r.required_string("coarse", "the name of the coarser [[levels]] entry, e.g. coarse = \"cg2\"");
   check_reference(r, "coarse", g.coarse, names.levels, "level");
@@ -134,6 +134,8 @@ CouplingRegionSpec read_region(const Table& r, const CaseSpec& spec, const Names
   g.correct = r.choice("correct", g.correct, {"mass_flow", "velocity", "none"});
   g.velocity_gain = r.number("velocity_gain", g.velocity_gain);
   r.positive("velocity_gain", g.velocity_gain, "1/s");
+  g.velocity_ki = r.number("velocity_ki", 0.1 * g.velocity_gain * g.velocity_gain);
+  r.non_negative("velocity_ki", g.velocity_ki, "1/s^2");
   g.acceleration_limit = r.number("acceleration_limit", g.acceleration_limit);
   r.non_negative("acceleration_limit", g.acceleration_limit, "m/s^2 (0 = automatic)");
   g.velocity_only_below = r.number("velocity_only_below", g.velocity_only_below, true);
@@ -189,6 +191,12 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
             num(g.velocity_gain) + " 1/s x the coupling interval " + num(c.interval) + " s = " +
                 num(g.velocity_gain * c.interval) + " would overshoot; give at most " + num(0.5 / c.interval) +
                 " 1/s, or a shorter interval");
+    // The correction acts on the cells' velocity, an integrator of the acceleration: a PI with
+    // ki > gain^2 / 4 is underdamped there and makes the coarse flow oscillate.
+    r.check("velocity_ki", g.velocity_ki <= 0.25 * g.velocity_gain * g.velocity_gain,
+            num(g.velocity_ki) + " 1/s^2 is above velocity_gain^2 / 4 = " +
+                num(0.25 * g.velocity_gain * g.velocity_gain) +
+                " 1/s^2, where the correction oscillates; give at most that, or a higher velocity_gain");
     // The integral acts once per interval on a stress that answers within it: ki x interval near 1 rings.
     r.check("ki", g.ki * c.interval <= 0.5,
             num(g.ki) + " 1/s x the coupling interval " + num(c.interval) + " s = " + num(g.ki * c.interval) +

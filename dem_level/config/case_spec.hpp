@@ -210,6 +210,8 @@ struct CouplingRegionSpec {        // [[coupling.regions]] one fine region insid
   std::string correct = "mass_flow";  // correct: "mass_flow" | "velocity" | "none" (coarse correction cells)
   double velocity_gain = 500.0;    // velocity_gain > 0 [1/s]: P controller on the coarse cells' mean velocity;
                                    //   velocity_gain x interval <= 0.5
+  double velocity_ki = 25000.0;    // velocity_ki >= 0 [1/s2]: its integral gain, <= velocity_gain^2 / 4;
+                                   //   default velocity_gain^2 / 10 (25000 at the default gain)
   double acceleration_limit = 0.0; // acceleration_limit [m/s2] >= 0; 0 = automatic (5 |g|)
   double velocity_only_below = -std::numeric_limits<double>::infinity();
                                    // velocity_only_below [m]: cells below this height use pure velocity coupling
