@@ -1,0 +1,127 @@
+// The faults of issue 13, each against the real programs: a run folder that
+// already holds something is refused before anything is written there; the
+// processes of a run end with their launcher, even when it is killed outright,
+// and a run folder takes one live launcher at a time; dem_level honours SIGTERM
+// inside a long insertion batch and while it waits to register with the coupler.
+#include <gtest/gtest.h>
+
+#include <sys/file.h>
+#include <sys/syscall.h>
+
+#include <map>
+
+#include "launch_support.hpp"
+#include "run_checks.hpp"
+
+using launch_support::kBin;
+using launch_support::kSrc;
+using launch_support::run;
+using launch_support::slurp;
+using launch_support::start;
+using launch_support::start_mlcg;
+using launch_support::wait_exit;
+using launch_support::wait_exit_within;
+using launch_support::wait_for_checkpoint;
+using run_checks::read_json;
+
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path temp(const std::string& tag) {
+  return fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()));
+}
+
+// Every regular file under dir by its path, with a hash of its bytes: what "unchanged" means for a run folder.
+std::map<std::string, size_t> fingerprint(const fs::path& dir) {
+  std::map<std::string, size_t> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) out[fs::relative(e.path(), dir).string()] = std::hash<std::string>{}(slurp(e.path()));
+  return out;
+}
+
+// A hierarchy run of the quickstart case stopped with Ctrl-C after a few consistent checkpoints: a run
+// folder `mlcg resume` continues.
+fs::path interrupted_hierarchy(const std::string& tag) {
+  const fs::path dir = temp(tag);
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  EXPECT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");
+  kill(pid, SIGINT);  // a launcher that has already ended is reaped below
+  EXPECT_EQ(wait_exit(pid), 130) << slurp(dir.string() + ".out");
+  return dir;
+}
+
+}  // namespace
+
+// ---- A run never reuses a folder (issue 13, fault 1) ----
+
+TEST(RunFolder, AnExistingRunFolderIsRefusedBeforeAnythingIsWritten) {
+  const fs::path dir = temp("reuse");
+  fs::remove_all(dir);
+  ASSERT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/collision/head_on.toml --out " + dir.string() + " --quiet > " +
+                dir.string() + ".out 2>&1"),
+            0) << slurp(dir.string() + ".out");
+  const auto before = fingerprint(dir);
+  ASSERT_GE(before.size(), 5u);
+  // The same single-level case again, and a hierarchy, into the folder of the completed run.
+  for (const std::string c : {"cases/collision/head_on.toml", "cases/quickstart/mlcg.toml"}) {
+    EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/" + c + " --out " + dir.string() + " --quiet > " + dir.string() +
+                  ".out 2>&1"),
+              2) << c;
+    const std::string out = slurp(dir.string() + ".out");
+    EXPECT_NE(out.find("error: --out " + dir.string() + " already holds a run (summary.json: completed)"), std::string::npos) << out;
+    EXPECT_NE(out.find("Give --out a new folder"), std::string::npos) << out;
+    EXPECT_EQ(fingerprint(dir), before) << c << " changed the files of the run already there";
+  }
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".out");
+}
+
+TEST(RunFolder, AFileGivenAsTheRunFolderIsRefusedWithoutAnAbort) {
+  const fs::path file = temp("outfile");
+  std::ofstream(file) << "not a run folder\n";
+  EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/collision/head_on.toml --out " + file.string() + " > " +
+                file.string() + ".out 2>&1"),
+            2);
+  const std::string out = slurp(file.string() + ".out");
+  EXPECT_NE(out.find("error: --out " + file.string() + " is an existing file, not a folder"), std::string::npos) << out;
+  EXPECT_NE(out.find("Give --out a new folder"), std::string::npos) << out;
+  EXPECT_EQ(slurp(file), "not a run folder\n");
+  fs::remove(file);
+  fs::remove(file.string() + ".out");
+}
+
+// The test holds the folder's lock as a live launcher does (status.json cannot tell: it is the old run's).
+// Neither `mlcg resume` nor `mlcg run` may touch the folder.
+TEST(RunFolderLock, AFolderHeldByALiveLauncherIsNeitherResumedNorReused) {
+  const fs::path dir = interrupted_hierarchy("held");
+  ASSERT_FALSE(HasFailure());
+  const int fd = ::open((dir / "launcher.lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(flock(fd, LOCK_EX | LOCK_NB), 0);
+  const std::string me = std::to_string(::getpid()) + "\n";
+  ASSERT_EQ(ftruncate(fd, 0), 0);
+  ASSERT_EQ(pwrite(fd, me.data(), me.size(), 0), static_cast<ssize_t>(me.size()));
+  const auto before = fingerprint(dir);
+  // `timeout`: a resume that is not refused would run the rest of the hierarchy.
+  EXPECT_EQ(run("timeout -s INT 120 " + kBin + "/mlcg resume " + dir.string() + " --quiet > " + dir.string() +
+                ".resume 2>&1"),
+            2);
+  const std::string refused = slurp(dir.string() + ".resume");
+  EXPECT_NE(refused.find(dir.string() + " is in use by the launcher pid " + std::to_string(::getpid())),
+            std::string::npos) << refused;
+  EXPECT_EQ(fingerprint(dir), before) << "the refused resume changed the run folder";
+  // A new run into it is refused too, with the way to continue this one.
+  EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/quickstart/mlcg.toml --out " + dir.string() + " --quiet > " +
+                dir.string() + ".run 2>&1"),
+            2);
+  const std::string again = slurp(dir.string() + ".run");
+  EXPECT_NE(again.find("already holds a run (summary.json: interrupted)"), std::string::npos) << again;
+  EXPECT_NE(again.find("Continue that run with `mlcg resume " + dir.string() + "`"), std::string::npos) << again;
+  EXPECT_EQ(fingerprint(dir), before) << "the refused run changed the run folder";
+  ::close(fd);
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", dir.string() + ".resume", dir.string() + ".run"}) fs::remove(f);
+}
