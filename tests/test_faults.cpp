@@ -40,6 +40,52 @@ std::map<std::string, size_t> fingerprint(const fs::path& dir) {
   return out;
 }
 
+// The process runs (a zombie waiting for its reaper, or no process, counts as ended).
+bool running(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat;
+  std::getline(in, stat);
+  const auto close = stat.rfind(')');
+  return close != std::string::npos && close + 2 < stat.size() && stat[close + 2] != 'Z';
+}
+
+// The pids of the processes status.json lists as running, once it lists n of them (it is written about once
+// a second); fewer when it does not within 10 s.
+std::vector<pid_t> run_processes(const fs::path& dir, size_t n) {
+  std::vector<pid_t> out;
+  for (int i = 0; i < 100 && out.size() < n; ++i) {
+    out.clear();
+    try {
+      const auto st = read_json(dir / "status.json");
+      for (const auto& p : st["processes"])
+        if (p["state"] == "running") out.push_back(p["pid"].get<pid_t>());
+    } catch (const std::exception&) {  // not written yet
+    }
+    if (out.size() < n) usleep(100000);
+  }
+  return out;
+}
+
+// Kills and reaps a child that a failed assertion would leave running.
+struct KillOnExit {
+  pid_t pid;
+  ~KillOnExit() {
+    if (pid <= 0) return;
+    kill(pid, SIGKILL);
+    waitpid(pid, nullptr, 0);
+  }
+};
+
+// Waits up to `seconds` for every pid to end; the ones still running.
+std::vector<pid_t> still_running(const std::vector<pid_t>& pids, double seconds) {
+  std::vector<pid_t> left = pids;
+  for (int i = 0; i < static_cast<int>(seconds * 20) && !left.empty(); ++i) {
+    usleep(50000);
+    std::erase_if(left, [](pid_t p) { return !running(p); });
+  }
+  return left;
+}
+
 // A hierarchy run of the quickstart case stopped with Ctrl-C after a few consistent checkpoints: a run
 // folder `mlcg resume` continues.
 fs::path interrupted_hierarchy(const std::string& tag) {
@@ -91,6 +137,44 @@ TEST(RunFolder, AFileGivenAsTheRunFolderIsRefusedWithoutAnAbort) {
   EXPECT_EQ(slurp(file), "not a run folder\n");
   fs::remove(file);
   fs::remove(file.string() + ".out");
+}
+
+// ---- A run's processes end with their launcher; one launcher per run folder (fault 2) ----
+
+// kill -9 leaves the launcher no chance to stop anything: the coupler and the levels must end by themselves
+// within a few seconds, the kernel releases the launcher's lock, and the run resumes from its last
+// consistent checkpoint to completion.
+TEST(LauncherDeath, AKilledLauncherTakesEveryProcessOfItsRunWithIt) {
+  const fs::path dir = temp("kill9");
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  KillOnExit guard{pid};
+  ASSERT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");
+  const std::vector<pid_t> children = run_processes(dir, 3);
+  ASSERT_EQ(children.size(), 3u) << "the coupler and two levels: " << slurp(dir / "status.json");
+  // While its launcher lives the folder is its own: a resume is refused, naming the launcher.
+  EXPECT_EQ(run(kBin + "/mlcg resume " + dir.string() + " > " + dir.string() + ".resume 2>&1"), 2);
+  const std::string refused = slurp(dir.string() + ".resume");
+  EXPECT_NE(refused.find("in use by the launcher pid " + std::to_string(pid)), std::string::npos) << refused;
+
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  EXPECT_EQ(wait_exit(pid), 128 + SIGKILL);
+  guard.pid = -1;
+  const auto left = still_running(children, 5.0);
+  for (const pid_t p : left) {
+    ADD_FAILURE() << "pid " << p << " of the run outlived its launcher by 5 s";
+    kill(p, SIGKILL);
+  }
+  const int fd = ::open((dir / "launcher.lock").c_str(), O_RDWR | O_CLOEXEC);
+  ASSERT_GE(fd, 0) << "no launcher.lock in " << dir;
+  EXPECT_EQ(flock(fd, LOCK_EX | LOCK_NB), 0) << "the dead launcher's lock is still held";
+  ::close(fd);
+  ASSERT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
+      << slurp(dir.string() + ".out");
+  EXPECT_EQ(read_json(dir / "summary.json")["status"], "completed");
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", dir.string() + ".resume"}) fs::remove(f);
 }
 
 // The test holds the folder's lock as a live launcher does (status.json cannot tell: it is the old run's).
