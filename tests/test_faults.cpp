@@ -86,6 +86,16 @@ std::vector<pid_t> still_running(const std::vector<pid_t>& pids, double seconds)
   return left;
 }
 
+// Until `file` exists (the program is past its start), up to a minute on a loaded machine.
+bool wait_for_file(const fs::path& file, pid_t pid) {
+  for (int i = 0; i < 600; ++i) {
+    if (fs::exists(file)) return true;
+    if (waitpid(pid, nullptr, WNOHANG) == pid) return false;
+    usleep(100000);
+  }
+  return false;
+}
+
 // A hierarchy run of the quickstart case stopped with Ctrl-C after a few consistent checkpoints: a run
 // folder `mlcg resume` continues.
 fs::path interrupted_hierarchy(const std::string& tag) {
@@ -208,4 +218,79 @@ TEST(RunFolderLock, AFolderHeldByALiveLauncherIsNeitherResumedNorReused) {
   ::close(fd);
   fs::remove_all(dir);
   for (const auto& f : {dir.string() + ".out", dir.string() + ".resume", dir.string() + ".run"}) fs::remove(f);
+}
+
+// ---- dem_level honours SIGTERM everywhere (fault 3) ----
+
+// One batch asks for 50 million particles (no rate): the cone holds about 17,000, so the rest take
+// 200 attempts each, hours of SSI. SIGTERM inside it ends the level within 2 s, with the batch dropped.
+TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
+  const fs::path dir = temp("bigbatch");
+  const fs::path cfile = dir.string() + ".toml";
+  fs::remove_all(dir);
+  std::string text = slurp(kSrc + "/cases/quickstart/case.toml");
+  const std::string from = "count = 2500\nrate = 20000.0\n";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "count = 50000000\n");
+  std::ofstream(cfile) << text;
+  const pid_t pid = start({kBin + "/dem_level", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  KillOnExit guard{pid};
+  ASSERT_TRUE(wait_for_file(dir / "case.toml", pid)) << slurp(dir.string() + ".out");
+  sleep(1);  // the set-up takes milliseconds: the batch is under way
+  ASSERT_EQ(waitpid(pid, nullptr, WNOHANG), 0) << "dem_level ended before the signal";
+  ASSERT_EQ(kill(pid, SIGTERM), 0);
+  const auto code = wait_exit_within(pid, 2.0);
+  guard.pid = -1;
+  ASSERT_TRUE(code.has_value()) << "dem_level ignored SIGTERM inside the insertion batch for 2 s (killed)";
+  EXPECT_EQ(*code, 130);
+  const std::string out = slurp(dir.string() + ".out");
+  EXPECT_NE(out.find("interrupted by a signal during batch 1 of insertion 'fill'"), std::string::npos) << out;
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "interrupted");
+  EXPECT_EQ(s["mass_balance"]["inserted"], 0) << "the unfinished batch must be dropped";
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    EXPECT_EQ(e.path().string().find(".tmp."), std::string::npos) << e.path();
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", cfile.string()}) fs::remove(f);
+}
+
+namespace {
+// A thread of `pid` other than its first that lets SIGTERM through (Open MPI's), or -1.
+pid_t other_thread_taking_sigterm(pid_t pid) {
+  for (const auto& e : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task")) {
+    const pid_t tid = std::stoi(e.path().filename().string());
+    if (tid == pid) continue;
+    std::ifstream in(e.path() / "status");
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("SigBlk:", 0) == 0 && !((std::stoull(line.substr(7), nullptr, 16) >> (SIGTERM - 1)) & 1u))
+        return tid;
+  }
+  return -1;
+}
+}  // namespace
+
+// A level whose coupler never comes waits up to [coupling] timeout (60 s) for its welcome. A SIGTERM
+// may be taken by any thread that does not block it: sent to an Open MPI thread, its handler runs there
+// and the level's poll is not woken; the wait must still end within 2 s.
+TEST(DemLevelSignals, SigtermEndsTheWaitForTheCouplerWithinTwoSeconds) {
+  const fs::path dir = temp("nocoupler");
+  fs::remove_all(dir);
+  const pid_t pid = start({kBin + "/dem_level", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--level",
+                           "coarse", "--coupler", "ipc://" + dir.string() + ".ipc", "--quiet"},
+                          dir.string() + ".out");
+  KillOnExit guard{pid};
+  ASSERT_TRUE(wait_for_file(dir / "case.toml", pid)) << slurp(dir.string() + ".out");
+  sleep(1);  // registering by now
+  const pid_t tid = other_thread_taking_sigterm(pid);
+  ASSERT_GT(tid, 0) << "no thread besides the first takes SIGTERM";
+  ASSERT_EQ(syscall(SYS_tgkill, pid, tid, SIGTERM), 0);
+  const auto code = wait_exit_within(pid, 2.0);
+  guard.pid = -1;
+  ASSERT_TRUE(code.has_value()) << "dem_level ignored SIGTERM while waiting for the coupler for 2 s (killed)";
+  EXPECT_NE(*code, 0);
+  const std::string out = slurp(dir.string() + ".out");
+  EXPECT_NE(out.find("error: interrupted by a signal while level 'coarse' waited for the welcome"), std::string::npos)
+      << out;
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", dir.string() + ".ipc"}) fs::remove(f);
 }
