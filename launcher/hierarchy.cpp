@@ -2,7 +2,6 @@
 
 #include <unistd.h>
 
-#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +14,7 @@
 #include "config/case_parser.hpp"
 #include "checkpoints.hpp"
 #include "process.hpp"
+#include "run_folder.hpp"
 #include "status.hpp"
 #include "supervise.hpp"
 #include "swap.hpp"
@@ -237,12 +237,7 @@ int resume_hierarchy(const std::string& run_folder, bool quiet) {
   const fs::path run_dir(run_folder);
   try {
     const RunInfo info = read_run_info(run_dir);
-    const auto st = read_json_or_null(run_dir / "status.json");
-    const std::string state = st.is_object() ? st.value("state", "") : "";
-    if (st.is_object() && kill(st.value("launcher_pid", -1), 0) == 0 && state != "completed" &&
-        state != "interrupted" && state != "failed")
-      throw std::runtime_error("the run is still going (launcher pid " + std::to_string(st.value("launcher_pid", -1)) +
-                               "); stop it first (Ctrl-C, or kill -INT that pid)");
+    const RunLock lock(run_dir);  // refuses while another launcher runs a hierarchy here
     const auto from = read_manifest(run_dir);
     if (!from)
       throw std::runtime_error(run_dir.string() + " has no consistent checkpoint (checkpoints/manifest.json); start "

@@ -14,7 +14,8 @@ namespace mlcg::launcher {
 // process runs and the bus security (hosts.hpp); the default is this machine over ipc.
 int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet,
                   Placement placement = {});
-// `mlcg resume RUN_DIR`: the same case, coupler and levels from checkpoints/manifest.json.
+// `mlcg resume RUN_DIR`: the same case, coupler and levels from checkpoints/manifest.json. Refused (2) while
+// another launcher holds the run folder (run_folder.hpp).
 int resume_hierarchy(const std::string& run_dir, bool quiet);
 
 }  // namespace mlcg::launcher

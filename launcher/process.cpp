@@ -25,11 +25,16 @@ pid_t spawn(const std::vector<std::string>& argv) {
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
+  const pid_t launcher = getpid();
   const pid_t pid = fork();
   if (pid < 0) throw std::runtime_error(std::string("cannot fork: ") + std::strerror(errno));
   if (pid == 0) {
     // Own process group, so a terminal's Ctrl-C reaches it only through the launcher.
     setpgid(0, 0);
+    // A launcher killed outright (SIGKILL) forwards nothing: the kernel sends SIGTERM instead, which the
+    // coupler and the levels honour and mpirun passes on to its ranks. It survives the exec.
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (getppid() != launcher) _exit(128 + SIGTERM);  // the launcher died before the line above
     execvp(args[0], args.data());
     std::fprintf(stderr, "error: cannot start %s: %s\n", args[0], std::strerror(errno));
     _exit(127);

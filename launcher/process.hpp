@@ -1,14 +1,16 @@
 #pragma once
 // Child processes of the launcher. Every process started here is stopped when
 // the run ends, fails or is interrupted: SIGINT/SIGTERM received by the
-// launcher are forwarded to the children, which checkpoint and exit.
+// launcher are forwarded to the children, which checkpoint and exit; when the
+// launcher itself is killed, the kernel sends them SIGTERM.
 #include <string>
 #include <sys/types.h>
 #include <vector>
 
 namespace mlcg::launcher {
 
-// Starts argv[0] with the arguments (PATH is searched). Throws on failure to start.
+// Starts argv[0] with the arguments (PATH is searched), in its own process group; it gets SIGTERM when
+// the launcher dies, however it dies (PR_SET_PDEATHSIG). Throws on failure to start.
 pid_t spawn(const std::vector<std::string>& argv);
 
 // A child with a name for messages ("coupler", "level 'fine'").

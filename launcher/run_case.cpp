@@ -20,6 +20,7 @@
 #include "hosts.hpp"
 #include "io/atomic_file.hpp"
 #include "process.hpp"
+#include "run_folder.hpp"
 
 namespace fs = std::filesystem;
 
@@ -97,6 +98,7 @@ void check_regions(const config::CaseSpec& cs) {
 int run_case(const std::string& case_file, std::string out_dir, bool quiet, const std::string& hosts, bool curve) {
   config::CaseSpec cs;
   launcher::Placement placement;
+  std::unique_ptr<RunLock> lock;  // held until the run ends
   try {
     cs = config::load_case(case_file);
     check_regions(cs);
@@ -106,12 +108,12 @@ int run_case(const std::string& case_file, std::string out_dir, bool quiet, cons
     if (!hosts.empty()) placement = launcher::Placement(launcher::read_hostfile(hosts), cs);
     if (curve) placement.enable_curve();
     placement.check(cs);
+    if (out_dir.empty()) out_dir = default_run_dir(case_file);
+    lock = claim_new_run_folder(out_dir);  // before anything is written there
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
-  if (out_dir.empty()) out_dir = default_run_dir(case_file);
-  fs::create_directories(out_dir);
   const double cpu0 = children_cpu_seconds();
   const int rc = run_launched(cs, case_file, out_dir, quiet, placement);
   const double cpu = children_cpu_seconds() - cpu0;

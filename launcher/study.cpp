@@ -9,6 +9,7 @@
 #include "io/atomic_file.hpp"
 #include "process.hpp"
 #include "run_case.hpp"
+#include "run_folder.hpp"
 #include "study_file.hpp"
 #include "study_report.hpp"
 
@@ -45,6 +46,11 @@ void clear_run_folder(const fs::path& run) {
   if (!is_run && !fs::is_empty(run))
     throw StudyError(run.string() + " exists and is not a run folder; not replacing it (move it, or give the study "
                                     "another folder)");
+  try {
+    const RunLock in_use(run);  // nor the folder of a run that is going on
+  } catch (const RunFolderError& e) {
+    throw StudyError(e.what());
+  }
   fs::remove_all(run);
 }
 

@@ -17,22 +17,20 @@
 
 #include <nlohmann/json.hpp>
 
+#include "launch_support.hpp"
 #include "run_checks.hpp"
 
+using launch_support::kBin;
+using launch_support::kSrc;
+using launch_support::run;
+using launch_support::slurp;
+using launch_support::start_mlcg;
+using launch_support::wait_exit;
+using launch_support::wait_for_checkpoint;
 using run_checks::check_region;
 using run_checks::read_json;
 
 namespace fs = std::filesystem;
-
-namespace {
-int run(const std::string& cmd) {
-  const int s = std::system(cmd.c_str());
-  return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-}
-const std::string kBin = MLCG_BIN_DIR;
-const std::string kSrc = MLCG_SOURCE_DIR;
-
-}  // namespace
 
 TEST(Launcher, RunsASingleLevelCaseToACompleteRunFolder) {
   const fs::path dir = fs::temp_directory_path() / ("mlcg_launch_" + std::to_string(::getpid()));
@@ -232,48 +230,6 @@ TEST(MlcgJunction, FineParticlesArePlacedInsideTheWallsBelowAJunction) {
 // ---- Consistent checkpoints, interrupt and resume, failures (issue 5) ----
 
 namespace {
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return {(std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()};
-}
-
-// Starts `mlcg ARGS` in the background (output to `log`); returns its pid.
-pid_t start_mlcg(const std::vector<std::string>& args, const fs::path& log) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    dup2(fd, 1);
-    dup2(fd, 2);
-    std::vector<std::string> a{kBin + "/mlcg"};
-    a.insert(a.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& s : a) argv.push_back(s.data());
-    argv.push_back(nullptr);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
-int wait_exit(pid_t pid) {
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
-// Waits (generously: the machine may be loaded) until the run's manifest names interval >= k.
-bool wait_for_checkpoint(const fs::path& dir, uint64_t k, pid_t launcher) {
-  for (int i = 0; i < 1200; ++i) {
-    try {
-      if (read_json(dir / "checkpoints" / "manifest.json")["interval"].get<uint64_t>() >= k) return true;
-    } catch (const std::exception&) {  // not there yet
-    }
-    if (waitpid(launcher, nullptr, WNOHANG) == launcher) return false;
-    usleep(100000);
-  }
-  return false;
-}
-
 // Processes whose command line names the run folder (the launcher's children and their MPI ranks).
 std::vector<std::string> processes_naming(const fs::path& dir) {
   std::vector<std::string> out;

@@ -11,6 +11,8 @@
 namespace mlcg::coupling {
 
 namespace {
+constexpr int64_t kStopCheckMs = 100;  // longest poll between looks at ClientOptions::stop
+
 std::string seconds(double s) {
   std::string t = std::to_string(s);
   t.erase(t.find_last_not_of('0') + 1);
@@ -42,21 +44,27 @@ void Client::send(const bus::Envelope& env) {
 std::string Client::wait_for(int want, const std::string& what, bool heartbeats, double sim_time, uint64_t step) {
   const auto span = [](double s) { return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s)); };
   auto deadline = Clock::now() + span(opt_.timeout);
+  const auto interrupted = [&] {
+    // What is queued may have nobody to go to (a coupler that never came): the exit must not wait for it.
+    ch_->socket().set(zmq::sockopt::linger, 0);
+    return CouplingError("interrupted by a signal while level '" + opt_.level_name + "' waited for " + what);
+  };
   for (;;) {
+    if (opt_.stop && opt_.stop()) throw interrupted();
     const auto now = Clock::now();
     if (now >= deadline)
       throw CouplingError("no message from the coupler at " + opt_.endpoint + " for " + seconds(opt_.timeout) +
                           " while waiting for " + what + " (timeout); is coupler_service running and reachable there?");
     auto until = deadline;
     if (heartbeats) until = std::min(until, last_sent_ + span(opt_.heartbeat));
-    const auto wait = std::max<int64_t>(
-        0, std::chrono::duration_cast<std::chrono::milliseconds>(until - now).count() + 1);
+    const auto wait = std::clamp<int64_t>(
+        std::chrono::duration_cast<std::chrono::milliseconds>(until - now).count() + 1, 0, kStopCheckMs);
     std::optional<bus::Incoming> in;
     try {
       in = ch_->receive(std::chrono::milliseconds(wait));
     } catch (const zmq::error_t& e) {
       if (e.num() != EINTR) throw;
-      throw CouplingError("interrupted by a signal while level '" + opt_.level_name + "' waited for " + what);
+      throw interrupted();
     }
     if (!in) {
       if (heartbeats && Clock::now() >= last_sent_ + span(opt_.heartbeat)) {

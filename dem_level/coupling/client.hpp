@@ -36,6 +36,9 @@ struct ClientOptions {
   double timeout = 60.0;    // [wall s] until the Welcome; then the Welcome's timeout_seconds
   double heartbeat = 1.0;   // [wall s] until the Welcome; then the Welcome's heartbeat_seconds
   std::function<void(const std::string&)> warn;  // rank 0: a message that was ignored
+  // Rank 0, at least every 100 ms while waiting: true ends the wait with a CouplingError (a SIGTERM whose
+  // handler ran on another thread, or before the wait, does not wake the poll).
+  std::function<bool()> stop;
 };
 
 class Client {

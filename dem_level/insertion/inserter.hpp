@@ -9,6 +9,8 @@
 // insertion stops making progress or ends. Nothing is dropped uncounted:
 //   requested = placed + pending + failed.
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -71,9 +73,13 @@ class Inserter {
   // Particles of p that a candidate in [lo, hi] could touch (reach: largest diameter).
   void nearby(const Particles& p, const Vec3& lo, const Vec3& hi, double reach, std::vector<Sphere>& out) const;
   // SSI for this batch against `obstacles`; returns the placed particles (ids from next_id).
-  std::vector<ParticleInit> place_batch(const std::vector<Sphere>& obstacles, double reach, const Vec3& lo,
-                                        const Vec3& hi, const WallSet& walls, std::mt19937_64& rng,
-                                        int64_t& next_id);
+  // nullopt when `stop` turned true before the batch was done (a signal: one batch of a large count
+  // without a rate can take hours); the state, rng and next_id are then part-way through the batch:
+  // the caller puts back the copies it kept.
+  std::optional<std::vector<ParticleInit>> place_batch(const std::vector<Sphere>& obstacles, double reach,
+                                                       const Vec3& lo, const Vec3& hi, const WallSet& walls,
+                                                       std::mt19937_64& rng, int64_t& next_id,
+                                                       const std::function<bool()>& stop = {});
   // Stop inserting: pending particles and those never requested count as failed.
   void finish();
   // The run ends: particles still waiting for a place count as failed.

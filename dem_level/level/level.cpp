@@ -29,6 +29,7 @@ void install_signal_handlers() {
   std::signal(SIGTERM, on_signal);
 }
 bool stop_requested() { return g_stop.load(); }
+bool Level::stopping() const { return interrupted_ || stop_requested(); }
 
 void Level::pre_step() {
   const double t = time();
@@ -89,7 +90,21 @@ void Level::insert_due(double t) {
     const std::vector<char> all = comm_.allgather(buf);
     std::vector<Sphere> obstacles(all.size() / sizeof(Sphere));
     std::memcpy(obstacles.data(), all.data(), obstacles.size() * sizeof(Sphere));
-    const auto placed = in.place_batch(obstacles, 2.0 * r_max_, lo, hi, walls_, rng_, next_id_);
+    const auto before = in.state();
+    const auto rng_before = rng_;
+    const int64_t id_before = next_id_;
+    const auto batch = in.place_batch(obstacles, 2.0 * r_max_, lo, hi, walls_, rng_, next_id_,
+                                      [this] { return stopping(); });
+    // A signal reaches the ranks at different moments: all drop the batch together, and the state
+    // (a checkpoint written on the way out) stays that before it.
+    if (comm_.any(!batch)) {
+      in.state() = before;
+      rng_ = rng_before;
+      next_id_ = id_before;
+      throw StopRequested(fmt::format("interrupted by a signal during batch {} of insertion '{}' at t = {:.6g} s; "
+                                      "the unfinished batch was dropped", before.batch + 1, in.params().name, t));
+    }
+    const auto& placed = *batch;
     if (!placed.empty()) {
       detach_ghosts();  // new local particles go before the ghosts; the rebuild restores them
       for (const auto& pi : placed)

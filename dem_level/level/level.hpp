@@ -52,6 +52,9 @@ struct LevelOptions {
 struct GuardStop : std::runtime_error { using std::runtime_error::runtime_error; };
 // Raised when a coupled level cannot go on: the coupler fell silent, refused or sent unusable commands.
 struct CouplingStop : std::runtime_error { using std::runtime_error::runtime_error; };
+// Raised when a signal (or interrupt()) stops the level inside a long phase of a step (an insertion batch);
+// the step's unfinished work is dropped.
+struct StopRequested : std::runtime_error { using std::runtime_error::runtime_error; };
 
 // Wall seconds spent per phase of the step loop (for benchmarks and reports).
 struct PhaseTimes {
@@ -132,6 +135,8 @@ class Level {
   // Collective: the state of every rank, gathered and written by rank 0.
   void write_checkpoint(const std::filesystem::path& path) const;
   void interrupt() { interrupted_ = true; }
+  // This rank was asked to stop (interrupt() or a signal); the run loop agrees over the ranks.
+  bool stopping() const;
   bool coupled() const { return coupled_ != nullptr; }
   // Collective. Intervals run, particles received from the coupler, and the largest overlap of
   // one of them with the particles of its rank at insertion, as a share of its diameter.

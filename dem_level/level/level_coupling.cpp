@@ -97,6 +97,7 @@ void Level::connect_coupler() {
   }
   auto log = log_;
   o.warn = [log](const std::string& m) { log->warn("{}", m); };
+  o.stop = [this] { return stopping(); };
   auto c = std::make_unique<Coupled>();
   c->client = std::make_unique<coupling::Client>(comm_, o);
 

@@ -3,6 +3,7 @@
 // under a temporary name and renamed.
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -45,7 +46,7 @@ RunStatus Level::run() {
   try {
     while (true) {
       if (end_time_ >= 0.0 && time() >= end_time_ - half) break;
-      if (comm_.any(interrupted_ || stop_requested())) {
+      if (comm_.any(stopping())) {
         status = RunStatus::Interrupted;
         reason = "interrupted by a signal";
         break;
@@ -72,6 +73,11 @@ RunStatus Level::run() {
       write_checkpoint(opt_.out_dir / "checkpoint_failed.h5");
       log_->error("state at the stop written to {}", (opt_.out_dir / "checkpoint_failed.h5").string());
     }
+  } catch (const StopRequested& e) {
+    status = RunStatus::Interrupted;
+    reason = e.what();
+    log_->warn("{}", reason);
+    if (opt_.quiet && comm_.rank() == 0) std::fprintf(stderr, "dem_level: %s\n", reason.c_str());  // not in the log alone
   } catch (const CouplingStop& e) {  // the last checkpoint stays
     status = RunStatus::Failed;
     reason = e.what();

@@ -1,0 +1,95 @@
+#pragma once
+// Starting the real programs from a test: mlcg and dem_level in the background, their exit, a run's
+// checkpoints. Shared by the launcher tests (test_launcher) and the fault tests (test_faults).
+#include <fcntl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "run_checks.hpp"
+
+namespace launch_support {
+namespace fs = std::filesystem;
+
+inline const std::string kBin = MLCG_BIN_DIR;
+inline const std::string kSrc = MLCG_SOURCE_DIR;
+
+// Runs a shell command; its exit code (-1 when it did not exit).
+inline int run(const std::string& cmd) {
+  const int s = std::system(cmd.c_str());
+  return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+}
+
+inline std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  return {(std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()};
+}
+
+// Starts argv in the background (output to `log`); returns its pid.
+inline pid_t start(std::vector<std::string> argv, const fs::path& log) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(fd, 1);
+    dup2(fd, 2);
+    std::vector<char*> args;
+    for (auto& s : argv) args.push_back(s.data());
+    args.push_back(nullptr);
+    execv(args[0], args.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+// Starts `mlcg ARGS` in the background (output to `log`); returns its pid.
+inline pid_t start_mlcg(const std::vector<std::string>& args, const fs::path& log) {
+  std::vector<std::string> a{kBin + "/mlcg"};
+  a.insert(a.end(), args.begin(), args.end());
+  return start(a, log);
+}
+
+inline int exit_code(int status) { return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status); }
+
+inline int wait_exit(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return exit_code(status);
+}
+
+// The exit code when the child ends within `seconds`; else nullopt (and it is killed and reaped).
+inline std::optional<int> wait_exit_within(pid_t pid, double seconds) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  int status = 0;
+  while (std::chrono::steady_clock::now() < until) {
+    if (waitpid(pid, &status, WNOHANG) == pid) return exit_code(status);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);
+  return std::nullopt;
+}
+
+// Waits (generously: the machine may be loaded) until the run's manifest names interval >= k.
+inline bool wait_for_checkpoint(const fs::path& dir, uint64_t k, pid_t launcher) {
+  for (int i = 0; i < 1200; ++i) {
+    try {
+      if (run_checks::read_json(dir / "checkpoints" / "manifest.json")["interval"].get<uint64_t>() >= k) return true;
+    } catch (const std::exception&) {  // not there yet
+    }
+    if (waitpid(launcher, nullptr, WNOHANG) == launcher) return false;
+    usleep(100000);
+  }
+  return false;
+}
+
+}  // namespace launch_support

@@ -1,0 +1,296 @@
+// The faults of issue 13, each against the real programs: a run folder that
+// already holds something is refused before anything is written there; the
+// processes of a run end with their launcher, even when it is killed outright,
+// and a run folder takes one live launcher at a time; dem_level honours SIGTERM
+// inside a long insertion batch and while it waits to register with the coupler.
+#include <gtest/gtest.h>
+
+#include <sys/file.h>
+#include <sys/syscall.h>
+
+#include <map>
+
+#include "launch_support.hpp"
+#include "run_checks.hpp"
+
+using launch_support::kBin;
+using launch_support::kSrc;
+using launch_support::run;
+using launch_support::slurp;
+using launch_support::start;
+using launch_support::start_mlcg;
+using launch_support::wait_exit;
+using launch_support::wait_exit_within;
+using launch_support::wait_for_checkpoint;
+using run_checks::read_json;
+
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path temp(const std::string& tag) {
+  return fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()));
+}
+
+// Every regular file under dir by its path, with a hash of its bytes: what "unchanged" means for a run folder.
+std::map<std::string, size_t> fingerprint(const fs::path& dir) {
+  std::map<std::string, size_t> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) out[fs::relative(e.path(), dir).string()] = std::hash<std::string>{}(slurp(e.path()));
+  return out;
+}
+
+// The process runs (a zombie waiting for its reaper, or no process, counts as ended).
+bool running(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat;
+  std::getline(in, stat);
+  const auto close = stat.rfind(')');
+  return close != std::string::npos && close + 2 < stat.size() && stat[close + 2] != 'Z';
+}
+
+// The pids of the processes status.json lists as running, once it lists n of them (it is written about once
+// a second); fewer when it does not within 10 s.
+std::vector<pid_t> run_processes(const fs::path& dir, size_t n) {
+  std::vector<pid_t> out;
+  for (int i = 0; i < 100 && out.size() < n; ++i) {
+    out.clear();
+    try {
+      const auto st = read_json(dir / "status.json");
+      for (const auto& p : st["processes"])
+        if (p["state"] == "running") out.push_back(p["pid"].get<pid_t>());
+    } catch (const std::exception&) {  // not written yet
+    }
+    if (out.size() < n) usleep(100000);
+  }
+  return out;
+}
+
+// Kills and reaps a child that a failed assertion would leave running.
+struct KillOnExit {
+  pid_t pid;
+  ~KillOnExit() {
+    if (pid <= 0) return;
+    kill(pid, SIGKILL);
+    waitpid(pid, nullptr, 0);
+  }
+};
+
+// Waits up to `seconds` for every pid to end; the ones still running.
+std::vector<pid_t> still_running(const std::vector<pid_t>& pids, double seconds) {
+  std::vector<pid_t> left = pids;
+  for (int i = 0; i < static_cast<int>(seconds * 20) && !left.empty(); ++i) {
+    usleep(50000);
+    std::erase_if(left, [](pid_t p) { return !running(p); });
+  }
+  return left;
+}
+
+// Until `file` exists (the program is past its start), up to a minute on a loaded machine.
+bool wait_for_file(const fs::path& file, pid_t pid) {
+  for (int i = 0; i < 600; ++i) {
+    if (fs::exists(file)) return true;
+    if (waitpid(pid, nullptr, WNOHANG) == pid) return false;
+    usleep(100000);
+  }
+  return false;
+}
+
+// A hierarchy run of the quickstart case stopped with Ctrl-C after a few consistent checkpoints: a run
+// folder `mlcg resume` continues.
+fs::path interrupted_hierarchy(const std::string& tag) {
+  const fs::path dir = temp(tag);
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  EXPECT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");
+  kill(pid, SIGINT);  // a launcher that has already ended is reaped below
+  EXPECT_EQ(wait_exit(pid), 130) << slurp(dir.string() + ".out");
+  return dir;
+}
+
+}  // namespace
+
+// ---- A run never reuses a folder (issue 13, fault 1) ----
+
+TEST(RunFolder, AnExistingRunFolderIsRefusedBeforeAnythingIsWritten) {
+  const fs::path dir = temp("reuse");
+  fs::remove_all(dir);
+  ASSERT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/collision/head_on.toml --out " + dir.string() + " --quiet > " +
+                dir.string() + ".out 2>&1"),
+            0) << slurp(dir.string() + ".out");
+  const auto before = fingerprint(dir);
+  ASSERT_GE(before.size(), 5u);
+  // The same single-level case again, and a hierarchy, into the folder of the completed run.
+  for (const std::string c : {"cases/collision/head_on.toml", "cases/quickstart/mlcg.toml"}) {
+    EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/" + c + " --out " + dir.string() + " --quiet > " + dir.string() +
+                  ".out 2>&1"),
+              2) << c;
+    const std::string out = slurp(dir.string() + ".out");
+    EXPECT_NE(out.find("error: --out " + dir.string() + " already holds a run (summary.json: completed)"), std::string::npos) << out;
+    EXPECT_NE(out.find("Give --out a new folder"), std::string::npos) << out;
+    EXPECT_EQ(fingerprint(dir), before) << c << " changed the files of the run already there";
+  }
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".out");
+}
+
+TEST(RunFolder, AFileGivenAsTheRunFolderIsRefusedWithoutAnAbort) {
+  const fs::path file = temp("outfile");
+  std::ofstream(file) << "not a run folder\n";
+  EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/collision/head_on.toml --out " + file.string() + " > " +
+                file.string() + ".out 2>&1"),
+            2);
+  const std::string out = slurp(file.string() + ".out");
+  EXPECT_NE(out.find("error: --out " + file.string() + " is an existing file, not a folder"), std::string::npos) << out;
+  EXPECT_NE(out.find("Give --out a new folder"), std::string::npos) << out;
+  EXPECT_EQ(slurp(file), "not a run folder\n");
+  fs::remove(file);
+  fs::remove(file.string() + ".out");
+}
+
+// ---- A run's processes end with their launcher; one launcher per run folder (fault 2) ----
+
+// kill -9 leaves the launcher no chance to stop anything: the coupler and the levels must end by themselves
+// within a few seconds, the kernel releases the launcher's lock, and the run resumes from its last
+// consistent checkpoint to completion.
+TEST(LauncherDeath, AKilledLauncherTakesEveryProcessOfItsRunWithIt) {
+  const fs::path dir = temp("kill9");
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  KillOnExit guard{pid};
+  ASSERT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");
+  const std::vector<pid_t> children = run_processes(dir, 3);
+  ASSERT_EQ(children.size(), 3u) << "the coupler and two levels: " << slurp(dir / "status.json");
+  // While its launcher lives the folder is its own: a resume is refused, naming the launcher.
+  EXPECT_EQ(run(kBin + "/mlcg resume " + dir.string() + " > " + dir.string() + ".resume 2>&1"), 2);
+  const std::string refused = slurp(dir.string() + ".resume");
+  EXPECT_NE(refused.find("in use by the launcher pid " + std::to_string(pid)), std::string::npos) << refused;
+
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  EXPECT_EQ(wait_exit(pid), 128 + SIGKILL);
+  guard.pid = -1;
+  const auto left = still_running(children, 5.0);
+  for (const pid_t p : left) {
+    ADD_FAILURE() << "pid " << p << " of the run outlived its launcher by 5 s";
+    kill(p, SIGKILL);
+  }
+  const int fd = ::open((dir / "launcher.lock").c_str(), O_RDWR | O_CLOEXEC);
+  ASSERT_GE(fd, 0) << "no launcher.lock in " << dir;
+  EXPECT_EQ(flock(fd, LOCK_EX | LOCK_NB), 0) << "the dead launcher's lock is still held";
+  ::close(fd);
+  ASSERT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
+      << slurp(dir.string() + ".out");
+  EXPECT_EQ(read_json(dir / "summary.json")["status"], "completed");
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", dir.string() + ".resume"}) fs::remove(f);
+}
+
+// The test holds the folder's lock as a live launcher does (status.json cannot tell: it is the old run's).
+// Neither `mlcg resume` nor `mlcg run` may touch the folder.
+TEST(RunFolderLock, AFolderHeldByALiveLauncherIsNeitherResumedNorReused) {
+  const fs::path dir = interrupted_hierarchy("held");
+  ASSERT_FALSE(HasFailure());
+  const int fd = ::open((dir / "launcher.lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(flock(fd, LOCK_EX | LOCK_NB), 0);
+  const std::string me = std::to_string(::getpid()) + "\n";
+  ASSERT_EQ(ftruncate(fd, 0), 0);
+  ASSERT_EQ(pwrite(fd, me.data(), me.size(), 0), static_cast<ssize_t>(me.size()));
+  const auto before = fingerprint(dir);
+  // `timeout`: a resume that is not refused would run the rest of the hierarchy.
+  EXPECT_EQ(run("timeout -s INT 120 " + kBin + "/mlcg resume " + dir.string() + " --quiet > " + dir.string() +
+                ".resume 2>&1"),
+            2);
+  const std::string refused = slurp(dir.string() + ".resume");
+  EXPECT_NE(refused.find(dir.string() + " is in use by the launcher pid " + std::to_string(::getpid())),
+            std::string::npos) << refused;
+  EXPECT_EQ(fingerprint(dir), before) << "the refused resume changed the run folder";
+  // A new run into it is refused too, with the way to continue this one.
+  EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/quickstart/mlcg.toml --out " + dir.string() + " --quiet > " +
+                dir.string() + ".run 2>&1"),
+            2);
+  const std::string again = slurp(dir.string() + ".run");
+  EXPECT_NE(again.find("already holds a run (summary.json: interrupted)"), std::string::npos) << again;
+  EXPECT_NE(again.find("Continue that run with `mlcg resume " + dir.string() + "`"), std::string::npos) << again;
+  EXPECT_EQ(fingerprint(dir), before) << "the refused run changed the run folder";
+  ::close(fd);
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", dir.string() + ".resume", dir.string() + ".run"}) fs::remove(f);
+}
+
+// ---- dem_level honours SIGTERM everywhere (fault 3) ----
+
+// One batch asks for 50 million particles (no rate): the cone holds about 17,000, so the rest take
+// 200 attempts each, hours of SSI. SIGTERM inside it ends the level within 2 s, with the batch dropped.
+TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
+  const fs::path dir = temp("bigbatch");
+  const fs::path cfile = dir.string() + ".toml";
+  fs::remove_all(dir);
+  std::string text = slurp(kSrc + "/cases/quickstart/case.toml");
+  const std::string from = "count = 2500\nrate = 20000.0\n";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "count = 50000000\n");
+  std::ofstream(cfile) << text;
+  const pid_t pid = start({kBin + "/dem_level", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  KillOnExit guard{pid};
+  ASSERT_TRUE(wait_for_file(dir / "case.toml", pid)) << slurp(dir.string() + ".out");
+  sleep(1);  // the set-up takes milliseconds: the batch is under way
+  ASSERT_EQ(waitpid(pid, nullptr, WNOHANG), 0) << "dem_level ended before the signal";
+  ASSERT_EQ(kill(pid, SIGTERM), 0);
+  const auto code = wait_exit_within(pid, 2.0);
+  guard.pid = -1;
+  ASSERT_TRUE(code.has_value()) << "dem_level ignored SIGTERM inside the insertion batch for 2 s (killed)";
+  EXPECT_EQ(*code, 130);
+  const std::string out = slurp(dir.string() + ".out");
+  EXPECT_NE(out.find("interrupted by a signal during batch 1 of insertion 'fill'"), std::string::npos) << out;
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "interrupted");
+  EXPECT_EQ(s["mass_balance"]["inserted"], 0) << "the unfinished batch must be dropped";
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    EXPECT_EQ(e.path().string().find(".tmp."), std::string::npos) << e.path();
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", cfile.string()}) fs::remove(f);
+}
+
+namespace {
+// A thread of `pid` other than its first that lets SIGTERM through (Open MPI's), or -1.
+pid_t other_thread_taking_sigterm(pid_t pid) {
+  for (const auto& e : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task")) {
+    const pid_t tid = std::stoi(e.path().filename().string());
+    if (tid == pid) continue;
+    std::ifstream in(e.path() / "status");
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("SigBlk:", 0) == 0 && !((std::stoull(line.substr(7), nullptr, 16) >> (SIGTERM - 1)) & 1u))
+        return tid;
+  }
+  return -1;
+}
+}  // namespace
+
+// A level whose coupler never comes waits up to [coupling] timeout (60 s) for its welcome. A SIGTERM
+// may be taken by any thread that does not block it: sent to an Open MPI thread, its handler runs there
+// and the level's poll is not woken; the wait must still end within 2 s.
+TEST(DemLevelSignals, SigtermEndsTheWaitForTheCouplerWithinTwoSeconds) {
+  const fs::path dir = temp("nocoupler");
+  fs::remove_all(dir);
+  const pid_t pid = start({kBin + "/dem_level", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--level",
+                           "coarse", "--coupler", "ipc://" + dir.string() + ".ipc", "--quiet"},
+                          dir.string() + ".out");
+  KillOnExit guard{pid};
+  ASSERT_TRUE(wait_for_file(dir / "case.toml", pid)) << slurp(dir.string() + ".out");
+  sleep(1);  // registering by now
+  const pid_t tid = other_thread_taking_sigterm(pid);
+  ASSERT_GT(tid, 0) << "no thread besides the first takes SIGTERM";
+  ASSERT_EQ(syscall(SYS_tgkill, pid, tid, SIGTERM), 0);
+  const auto code = wait_exit_within(pid, 2.0);
+  guard.pid = -1;
+  ASSERT_TRUE(code.has_value()) << "dem_level ignored SIGTERM while waiting for the coupler for 2 s (killed)";
+  EXPECT_NE(*code, 0);
+  const std::string out = slurp(dir.string() + ".out");
+  EXPECT_NE(out.find("error: interrupted by a signal while level 'coarse' waited for the welcome"), std::string::npos)
+      << out;
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", dir.string() + ".ipc"}) fs::remove(f);
+}
