@@ -159,7 +159,7 @@ void Level::setup() {
     kinds.push_back(k);
     r_max = std::max(r_max, k.r_max);
   }
-  for (const auto& k : explicit_kinds) {
+  for (const auto& k : merge_kinds(explicit_kinds)) {  // one kind per particle would make the guard O(N^2)
     kinds.push_back(k);
     r_max = std::max(r_max, k.r_max);
   }
