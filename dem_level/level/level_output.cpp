@@ -68,23 +68,49 @@ RunStatus Level::run() {
     status = RunStatus::Failed;
     reason = e.what();
     log_->error("STOPPED: {}", reason);
-    if (!opt_.out_dir.empty()) {
+    if (!opt_.out_dir.empty()) try {
       write_checkpoint(opt_.out_dir / "checkpoint_failed.h5");
       log_->error("state at the stop written to {}", (opt_.out_dir / "checkpoint_failed.h5").string());
+    } catch (const OutputStop& w) {
+      log_->error("the state at the stop could not be written: {}", w.what());
     }
   } catch (const CouplingStop& e) {  // the last checkpoint stays
     status = RunStatus::Failed;
     reason = e.what();
     log_->error("STOPPED: {}", reason);
+  } catch (const OutputStop& e) {  // the last checkpoint stays
+    status = RunStatus::Failed;
+    reason = std::string("cannot write the run's output: ") + e.what();
   }
+  finish_run(status, reason);
+  return status;
+}
+
+void Level::finish_run(RunStatus status, const std::string& reason) {
   if (coupled_) coupling_bye(status, reason);
   if (status == RunStatus::Completed)
     for (auto& in : ins_) in.abandon_pending();
-
   progress(true);
-  write_outputs(true);
-  if (!opt_.out_dir.empty() && status != RunStatus::Failed) write_checkpoint(opt_.out_dir / "checkpoint.h5");
-  write_summary(to_string(status), reason);
+  const bool disk_failed = !output_error_.empty() || reason.rfind("cannot write the run's output", 0) == 0;
+  try {
+    if (disk_failed) {  // nothing more but the summary: every further file would fail the same way
+      log_->error("STOPPED: {}; earlier files and checkpoints are intact", reason);
+      log_->flush();
+    } else {
+      write_outputs(true);
+      if (!opt_.out_dir.empty() && status != RunStatus::Failed) write_checkpoint(opt_.out_dir / "checkpoint.h5");
+    }
+    write_summary(to_string(status), reason);
+  } catch (const OutputStop& e) {
+    log_->error("cannot write the run's output: {}", e.what());
+    status = RunStatus::Failed;
+  }
+  // The log file may be on the full disk too, and a quiet level has no console: stderr always tells.
+  if (status == RunStatus::Failed && comm_.rank() == 0 && (disk_failed || !output_error_.empty()))
+    std::fprintf(stderr, "dem_level: level '%s' failed: %s%s\n", lvl_.name.c_str(), reason.c_str(),
+                 output_error_.empty() || reason.find(output_error_) != std::string::npos
+                     ? ""
+                     : ("; and " + output_error_).c_str());
   const auto b = mass_balance();
   log_->info("{}: t = {:.4f} s, {} steps, {} particles present, {} removed, {} failed to place", to_string(status),
              time(), step_, b.present, b.removed, b.failed);
@@ -97,12 +123,25 @@ RunStatus Level::run() {
       log_->warn("probe '{}': the batch means are still correlated (lag 1: {:.2f}), so the interval is likely too "
                  "narrow; a longer window gives room for longer batches", pr.params().name, w.ci.lag1);
   }
-  return status;
+}
+
+void Level::rank0_output(const std::function<void()>& write) const {
+  try {
+    write();
+  } catch (const std::exception& e) {
+    if (output_error_.empty()) output_error_ = e.what();
+  }
+}
+
+void Level::sync_output() const {
+  if (!comm_.any(!output_error_.empty())) return;
+  throw OutputStop(comm_.serial() ? output_error_ : comm_.bcast(output_error_, 0));
 }
 
 void Level::after_step() {
   const double t = time();
   const double half = 0.5 * dt_;
+  bool grid_output = false;
   {
     PhaseTimer measure(times_.measure);
     for (auto& pr : probes_)
@@ -116,13 +155,16 @@ void Level::after_step() {
       }
       if (t >= g.next_output - half) {
         const GridAverages a = g.grid.take_averages();
-        if (g.series) g.series->write(t, a.volume_fraction, a.mean_velocity, a.max_speed, a.stress6, a.count);
+        if (g.series)
+          rank0_output([&] { g.series->write(t, a.volume_fraction, a.mean_velocity, a.max_speed, a.stress6, a.count); });
+        grid_output = true;
         g.next_output += g.output_interval;
         ++g.outputs;
       }
     }
   }
   PhaseTimer output(times_.output);
+  if (grid_output) sync_output();
   const auto& o = cs_.output;
   if (o.stats_interval > 0.0 && t >= next_stats_ - half) {
     series_rows_.push_back(series_row());
@@ -162,7 +204,11 @@ void Level::write_snapshot() {
     w.put(p_.x[i]); w.put(p_.v[i]); w.put(p_.omega[i]); w.put(p_.radius[i]); w.put(p_.id[i]);
   }
   const auto all = comm_.gather0(buf);
-  if (!snaps_) return;
+  if (snaps_) rank0_output([&] { write_snapshot_file(all); });
+  sync_output();
+}
+
+void Level::write_snapshot_file(const std::vector<char>& all) {
   std::vector<Vec3> x, v, om;
   std::vector<double> r;
   std::vector<int64_t> id;
@@ -183,7 +229,11 @@ void Level::write_outputs(bool final) {
   // the same time); that row is not part of the checkpointed series.
   std::vector<std::string> rows = series_rows_;
   const std::string last = final ? series_row() : std::string();
-  if (comm_.rank() != 0) return;
+  if (comm_.rank() == 0) rank0_output([&] { write_series_files(rows, last, final); });
+  sync_output();
+}
+
+void Level::write_series_files(std::vector<std::string> rows, const std::string& last, bool final) const {
   if (final) {
     const auto stamp = [](const std::string& r) { return r.substr(0, r.find(',')); };
     if (!rows.empty() && stamp(rows.back()) == stamp(last)) rows.back() = last;
@@ -197,16 +247,21 @@ void Level::write_outputs(bool final) {
 
 void Level::write_summary(const std::string& status, const std::string& reason) const {
   if (opt_.out_dir.empty()) return;
-  using nlohmann::json;
   // Collective part first: every rank contributes, rank 0 writes.
   const auto b = mass_balance();
-  const double nr = static_cast<double>(comm_.size());
   double sums[12] = {times_.integrate, times_.neighbor, times_.force, times_.comm, times_.measure, times_.insert,
                      times_.output, static_cast<double>(nl_.pairs()), static_cast<double>(memory_bytes()),
                      static_cast<double>(p_.n_local()), times_.coupling, times_.coupling_wait};
   comm_.sum_in_place(sums, 12);
   const CouplingReport cr = coupling_report();
-  if (comm_.rank() != 0) return;
+  if (comm_.rank() == 0) rank0_output([&] { write_summary_file(status, reason, b, sums, cr); });
+  sync_output();
+}
+
+void Level::write_summary_file(const std::string& status, const std::string& reason, const MassBalance& b,
+                               const double* sums, const CouplingReport& cr) const {
+  using nlohmann::json;
+  const double nr = static_cast<double>(comm_.size());
   const double wall = wall_seconds_before_ + (wall_seconds() - wall_start_);
   json j;
   j["status"] = status;
