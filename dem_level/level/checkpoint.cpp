@@ -193,7 +193,7 @@ void Level::write_scene_state(io::H5Writer& w) const {
   w.write("events/fired", fired);
   w.write("events/fired_at", fired_at);
   w.write("events/next_check", next_check);
-  const std::string scene = scene_record(cs_, lvl_, explicit_count_).dump();
+  const std::string scene = scene_record(cs_, lvl_, case_placed_).dump();
   w.write("scene/record", reinterpret_cast<const uint8_t*>(scene.data()), scene.size());
   std::string rows;
   for (const auto& r : series_rows_) rows += r + "\n";
@@ -261,7 +261,7 @@ SceneMap Level::check_scene(const io::H5Reader& r) const {
     log_->warn("{}: written before checkpoints recorded their scene; the case cannot be checked against it",
                r.path().string());
   }
-  const nlohmann::json now = scene_record(cs_, lvl_, explicit_count_);
+  const nlohmann::json now = scene_record(cs_, lvl_, case_placed_);
   if (saved.is_object()) {
     const auto diffs = scene_differences(saved, now);
     if (!diffs.empty())

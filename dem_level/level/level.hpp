@@ -199,7 +199,8 @@ class Level {
                           const double* sums, const CouplingReport& cr) const;  // rank 0
   std::string series_row() const;
   void write_summary(const std::string& status, const std::string& reason) const;
-  void finish_run(RunStatus status, const std::string& reason);  // the final outputs and log lines of run()
+  // The final outputs and log lines of run(); after a failed output only the summary is tried.
+  void finish_run(RunStatus status, const std::string& reason, bool output_failed);
   void write_checkpoint_file(const std::filesystem::path& path, const std::vector<char>& particles,
                              const std::vector<char>& open_mass, const CouplingReport& coupling) const;
   void write_scene_state(io::H5Writer& w) const;  // walls, insertions, probes, grids, events, series, scene
@@ -268,7 +269,8 @@ class Level {
   int64_t removed_ = 0;
   int64_t removed_by_[kExits] = {0, 0, 0};
   double removed_mass_by_[kExits] = {0.0, 0.0, 0.0};
-  int64_t explicit_count_ = 0;      // the case's [[particles]] and [initial] particles
+  int64_t explicit_count_ = 0;      // the case's [[particles]] and [initial] particles (and the coupler's)
+  int64_t case_placed_ = 0;         // the case's own: [[particles]] and [initial] on this level
   double explicit_mass_ = 0.0;
   CouplingReport coupling_restored_;  // a coupled level's counters from its checkpoint (inserted, worst overlap)
   double removed_mass_ = 0.0;

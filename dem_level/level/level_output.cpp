@@ -42,6 +42,7 @@ RunStatus Level::run() {
 
   RunStatus status = RunStatus::Completed;
   std::string reason;
+  bool output_failed = false;
   try {
     while (true) {
       if (end_time_ >= 0.0 && time() >= end_time_ - half) break;
@@ -81,19 +82,19 @@ RunStatus Level::run() {
   } catch (const OutputStop& e) {  // the last checkpoint stays
     status = RunStatus::Failed;
     reason = std::string("cannot write the run's output: ") + e.what();
+    output_failed = true;
   }
-  finish_run(status, reason);
+  finish_run(status, reason, output_failed);
   return status;
 }
 
-void Level::finish_run(RunStatus status, const std::string& reason) {
+void Level::finish_run(RunStatus status, const std::string& reason, bool output_failed) {
   if (coupled_) coupling_bye(status, reason);
   if (status == RunStatus::Completed)
     for (auto& in : ins_) in.abandon_pending();
   progress(true);
-  const bool disk_failed = !output_error_.empty() || reason.rfind("cannot write the run's output", 0) == 0;
   try {
-    if (disk_failed) {  // nothing more but the summary: every further file would fail the same way
+    if (output_failed) {  // nothing more but the summary: every further file would fail the same way
       log_->error("STOPPED: {}; earlier files and checkpoints are intact", reason);
       log_->flush();
     } else {
@@ -106,7 +107,7 @@ void Level::finish_run(RunStatus status, const std::string& reason) {
     status = RunStatus::Failed;
   }
   // The log file may be on the full disk too, and a quiet level has no console: stderr always tells.
-  if (status == RunStatus::Failed && comm_.rank() == 0 && (disk_failed || !output_error_.empty()))
+  if (status == RunStatus::Failed && comm_.rank() == 0 && (output_failed || !output_error_.empty()))
     std::fprintf(stderr, "dem_level: level '%s' failed: %s%s\n", lvl_.name.c_str(), reason.c_str(),
                  output_error_.empty() || reason.find(output_error_) != std::string::npos
                      ? ""

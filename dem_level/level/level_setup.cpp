@@ -143,6 +143,7 @@ void Level::setup() {
     if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
   if (cs_.initial) load_initial_state(explicit_kinds, placed, fills_scene && opt_.restart.empty());
+  case_placed_ = explicit_count_;  // before a checkpoint or the coupler adds to the count
 
   // Stability guard, over every kind of particle this level will hold.
   std::vector<ParticleKind> kinds;

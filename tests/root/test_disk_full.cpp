@@ -133,3 +133,17 @@ TEST(DiskFull, EveryLevelOfAHierarchyFailsCleanlyWithoutACrash) {
   fs::remove(c);
   fs::remove(out);
 }
+
+TEST(DiskFull, SingleLevelThroughTheLauncherEndsWithTheLevelsCode) {
+  TinyDisk disk(2048);
+  if (!disk.skip_reason().empty()) GTEST_SKIP() << disk.skip_reason();
+  const fs::path c = frequent_snapshots("cases/quickstart/case.toml", "0.001", "launcher");
+  const fs::path run = disk.dir() / "run", out = fs::temp_directory_path() / ("mlcg_full_out_" + std::to_string(::getpid()));
+  const int rc = sh(kBin + "/mlcg run " + c.string() + " --out " + run.string() + " --quiet > " + out.string() + " 2>&1");
+  const std::string text = slurp(out);
+  EXPECT_EQ(rc, 3) << text;  // the level's "failed"; the launcher itself does not abort on the full disk
+  EXPECT_EQ(text.find("terminate called"), std::string::npos) << text;
+  EXPECT_NE(text.find("== " + run.string() + ": failed =="), std::string::npos) << text;
+  fs::remove(c);
+  fs::remove(out);
+}
