@@ -23,6 +23,31 @@ std::string human_duration(double s) {
   if (s < 3600) return fmt::format("{:.0f} min {:02.0f} s", std::floor(s / 60), std::fmod(s, 60));
   return fmt::format("{:.0f} h {:02.0f} min", std::floor(s / 3600), std::fmod(s, 3600) / 60);
 }
+// summary.json's entry of each probe: its window, mean, spread and the mean's interval.
+nlohmann::json probe_entries(const std::vector<MassFlowProbe>& all) {
+  using nlohmann::json;
+  json probes = json::array();
+  for (const auto& pr : all) {
+    const auto w = pr.window_stats();
+    json q;
+    q["name"] = pr.params().name;
+    q["file"] = "probes/" + pr.params().name + ".csv";
+    q["window"] = pr.params().window_known ? json::array({pr.params().window_start, pr.params().window_end}) : json();
+    q["samples_in_window"] = w.samples;
+    q["mean_kg_per_s"] = w.mean;
+    q["std_kg_per_s"] = w.stddev;
+    // The samples are autocorrelated: the half-width comes from batch means, not std / sqrt(n).
+    const bool has_ci = std::isfinite(w.ci.ci95);
+    q["ci95_kg_per_s"] = has_ci ? json(w.ci.ci95) : json();
+    q["ci_method"] = has_ci ? w.ci.method() : "fewer than 2 samples in the window";
+    q["effective_samples"] = has_ci ? json(w.ci.effective_samples) : json();
+    q["ci_batch_lag1"] = has_ci ? json(w.ci.lag1) : json();  // above 0.1: batches too short, interval too narrow
+    q["total_mass_kg"] = pr.state().total_mass;
+    probes.push_back(q);
+  }
+  return probes;
+}
+
 constexpr const char* kSeriesHeader =
     "t,particles,kinetic_energy_J,pair_contacts,wall_contacts,requested,inserted,removed,failed,pending,rebuilds\n";
 }  // namespace
@@ -305,26 +330,7 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
                       {"largest_insert_wall_overlap_of_diameter", cr.worst_insert_wall_overlap},
                       {"inserted_outside_walls", cr.inserted_outside_walls}};
   j["levels"] = json::array({lv});
-  json probes = json::array();
-  for (const auto& pr : probes_) {
-    const auto w = pr.window_stats();
-    json q;
-    q["name"] = pr.params().name;
-    q["file"] = "probes/" + pr.params().name + ".csv";
-    q["window"] = pr.params().window_known ? json::array({pr.params().window_start, pr.params().window_end}) : json();
-    q["samples_in_window"] = w.samples;
-    q["mean_kg_per_s"] = w.mean;
-    q["std_kg_per_s"] = w.stddev;
-    // The samples are autocorrelated: the half-width comes from batch means, not std / sqrt(n).
-    const bool has_ci = std::isfinite(w.ci.ci95);
-    q["ci95_kg_per_s"] = has_ci ? json(w.ci.ci95) : json();
-    q["ci_method"] = has_ci ? w.ci.method() : "fewer than 2 samples in the window";
-    q["effective_samples"] = has_ci ? json(w.ci.effective_samples) : json();
-    q["ci_batch_lag1"] = has_ci ? json(w.ci.lag1) : json();  // above 0.1: batches too short, interval too narrow
-    q["total_mass_kg"] = pr.state().total_mass;
-    probes.push_back(q);
-  }
-  j["probes"] = probes;
+  j["probes"] = probe_entries(probes_);
   j["mass_balance"] = {{"requested", b.requested},       {"inserted", b.inserted},
                        {"present", b.present},           {"removed", b.removed},
                        {"failed_to_place", b.failed},    {"pending", b.pending},
