@@ -51,14 +51,8 @@ void write(const fs::path& p, const std::string& text) {
 
 // A real level checkpoint (what the launcher checks is its format) and a coupler state of interval k.
 void level_file(const fs::path& p) {
-  static const fs::path made = [] {
-    const fs::path f = fs::temp_directory_path() / ("mlcg_resume_level_" + std::to_string(::getpid()) + ".h5");
-    mlcg::Level level(mlcg::test::load("quickstart/case.toml"), mlcg::test::quiet());
-    level.write_checkpoint(f);
-    return f;
-  }();
-  fs::create_directories(p.parent_path());
-  fs::copy_file(made, p, fs::copy_options::overwrite_existing);
+  mlcg::Level level(mlcg::test::load("quickstart/case.toml"), mlcg::test::quiet());
+  level.write_checkpoint(p);
 }
 
 void coupler_file(const fs::path& p, uint64_t k) {
