@@ -4,8 +4,6 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
-#include <fstream>
-#include <iterator>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/basic_file_sink.h>
@@ -13,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "bus/case_hash.hpp"
+#include "bus/checkpoint_file.hpp"
 #include "config/case_parser.hpp"
 #include "from_case.hpp"
 #include "io/atomic_file.hpp"
@@ -24,11 +23,12 @@ extern "C" void on_abort(int) { mlcg::coupling::requests().abort.store(true); }
 extern "C" void on_checkpoint(int) { mlcg::coupling::requests().checkpoint.store(true); }
 
 std::shared_ptr<const mlcg::bus::CouplerCheckpoint> read_resume(const std::string& path, const std::string& hash) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("--resume " + path + ": cannot read the coupler checkpoint");
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  auto c = std::make_shared<mlcg::bus::CouplerCheckpoint>();
-  if (!c->ParseFromString(bytes)) throw std::runtime_error("--resume " + path + ": not a coupler checkpoint");
+  std::shared_ptr<mlcg::bus::CouplerCheckpoint> c;
+  try {
+    c = std::make_shared<mlcg::bus::CouplerCheckpoint>(mlcg::bus::read_coupler_checkpoint(path));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("--resume: ") + e.what() + "; resume from an intact consistent checkpoint");
+  }
   if (c->case_hash() != hash)
     throw std::runtime_error("--resume " + path + ": written for another case (hash " + c->case_hash() +
                              ", this case's is " + hash + "); the case file changed since the checkpoint");

@@ -57,6 +57,23 @@ void Service::decide_checkpoint(std::vector<bus::IntervalCommands>& cmds) {
   }
 }
 
+namespace {
+// Copies the set the manifest names now into m["previous"] (an earlier interval only); returns its
+// folder's name, or "" when there is none.
+std::string keep_previous(nlohmann::json& m, const fs::path& manifest) {
+  std::ifstream in(manifest);
+  nlohmann::json old = nlohmann::json::parse(in, nullptr, false);
+  if (!old.is_object() || !old.contains("interval") || !old["interval"].is_number_unsigned() ||
+      old["interval"].get<uint64_t>() >= m["interval"].get<uint64_t>() || !old["coupler"].is_string())
+    return "";
+  old.erase("previous");
+  old.erase("format");
+  const std::string dir = fs::path(old["coupler"].get<std::string>()).parent_path().string();
+  m["previous"] = std::move(old);
+  return dir;
+}
+}  // namespace
+
 void Service::write_checkpoint(const std::vector<bus::IntervalStats>& stats,
                                const std::vector<bus::IntervalCommands>& next) {
   checkpoint_due_ = false;
@@ -85,11 +102,14 @@ void Service::write_checkpoint(const std::vector<bus::IntervalStats>& stats,
   for (const auto& cmd : next) *c.add_commands() = cmd;
   io::write_file_atomic(root / set / "coupler.pb", c.SerializeAsString());
   m["coupler"] = set + "/coupler.pb";
+  // The set before stays on disk, named in the manifest: if this one is damaged later (a disk
+  // fault, a file cut short), the run can still continue from that one (`mlcg resume --previous`).
+  const std::string previous = keep_previous(m, root / "manifest.json");
   // The manifest is renamed last: until then the previous set stays the consistent one.
   io::write_file_atomic(root / "manifest.json", m.dump(2) + "\n");
   ++checkpoints_;
   for (const auto& e : fs::directory_iterator(root)) {
-    if (!e.is_directory() || e.path().filename() == set) continue;
+    if (!e.is_directory() || e.path().filename() == set || e.path().filename() == previous) continue;
     std::error_code ec;
     fs::remove_all(e.path(), ec);
   }

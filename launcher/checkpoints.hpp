@@ -5,6 +5,7 @@
 // state for one interval boundary are on disk (the consistent set).
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -18,11 +19,21 @@ struct ResumePoint {
   std::string case_hash;
   std::filesystem::path coupler;                       // coupler.pb
   std::map<std::string, std::filesystem::path> levels; // level name -> checkpoint
+  std::shared_ptr<const ResumePoint> previous;         // the consistent set before it, kept on disk; null if none
 };
 
 // nullopt when the run has no consistent checkpoint yet. Throws std::runtime_error naming the file and
-// what is wrong (unreadable, a file of the set missing).
+// what is wrong: unreadable, a field missing or of the wrong type, a file of the set missing or outside
+// the run's checkpoints folder.
 std::optional<ResumePoint> read_manifest(const std::filesystem::path& run_dir);
+
+// "" when every file of the set reads as what it should be (level checkpoints as HDF5 level
+// checkpoints, coupler.pb as the coupler's state of that interval); else what is wrong, naming the file.
+std::string damage_of(const ResumePoint& set);
+
+// The message for a damaged set: what is wrong, and the previous consistent set to continue from
+// (`mlcg resume RUN --previous`) when it is intact, or that none exists.
+std::string damaged_set_advice(const ResumePoint& set, const std::string& damage, const std::filesystem::path& run_dir);
 
 struct RunInfo {
   std::string case_file;  // absolute

@@ -54,9 +54,16 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Ou
   s["status"] = r.exit_code == 0 ? "completed" : (r.interrupted ? "interrupted" : "failed");
   s["reason"] = r.failed;
   s["attempts"] = attempts;
-  if (const auto m = read_manifest(run_dir))
-    s["checkpoint"] = {{"interval", m->interval}, {"sim_time", m->sim_time},
-                       {"manifest", (run_dir / "checkpoints" / "manifest.json").string()}};
+  try {
+    if (const auto m = read_manifest(run_dir)) {
+      s["checkpoint"] = {{"interval", m->interval}, {"sim_time", m->sim_time},
+                         {"manifest", (run_dir / "checkpoints" / "manifest.json").string()}};
+      if (const std::string damage = damage_of(*m); !damage.empty())
+        s["checkpoint"]["damaged"] = damaged_set_advice(*m, damage, run_dir);
+    }
+  } catch (const std::exception& e) {
+    s["checkpoint_error"] = e.what();
+  }
   s["levels"] = nlohmann::json::array();
   double wall = 0.0;
   const size_t finest = finest_level(cs);
@@ -140,7 +147,9 @@ void print_end(const fs::path& run_dir, const Outcome& r) {
                 probe_flow_text(p).c_str());
   if (r.exit_code == 0) return;
   if (!r.failed.empty()) std::fprintf(stderr, "mlcg: %s; every other process was stopped\n", r.failed.c_str());
-  if (s.contains("checkpoint"))
+  if (s.contains("checkpoint") && s["checkpoint"].contains("damaged"))
+    std::fprintf(stderr, "mlcg: %s\n", s["checkpoint"]["damaged"].get<std::string>().c_str());
+  else if (s.contains("checkpoint"))
     std::fprintf(stderr, "mlcg: last consistent checkpoint: interval %llu (t = %.6g s), %s; continue with `mlcg "
                          "resume %s`\n", s["checkpoint"].value("interval", 0ULL), s["checkpoint"].value("sim_time", 0.0),
                  s["checkpoint"].value("manifest", "").c_str(), run_dir.c_str());
@@ -202,6 +211,8 @@ int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file
     if (!again) break;
     try {
       from = read_manifest(run_dir);
+      if (const std::string damage = from ? damage_of(*from) : ""; !damage.empty())
+        throw std::runtime_error(damaged_set_advice(*from, damage, run_dir));
     } catch (const std::exception& e) {
       std::fprintf(stderr, "mlcg: cannot restart: %s\n", e.what());
       break;
@@ -233,15 +244,26 @@ int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, cons
   return supervise_hierarchy(cs, case_file, run_dir, quiet, std::nullopt, std::move(placement));
 }
 
-int resume_hierarchy(const std::string& run_folder, bool quiet) {
+int resume_hierarchy(const std::string& run_folder, bool quiet, bool previous) {
   const fs::path run_dir(run_folder);
   try {
     const RunInfo info = read_run_info(run_dir);
     const RunLock lock(run_dir);  // refuses while another launcher runs a hierarchy here
-    const auto from = read_manifest(run_dir);
+    auto from = read_manifest(run_dir);
     if (!from)
       throw std::runtime_error(run_dir.string() + " has no consistent checkpoint (checkpoints/manifest.json); start "
                                "it again with `mlcg run`");
+    if (previous) {
+      if (!from->previous)
+        throw std::runtime_error(run_dir.string() + " keeps no consistent set before interval " +
+                                 std::to_string(from->interval) + "; resume without --previous");
+      from = *from->previous;
+    }
+    // A damaged set is refused before anything starts, with the set to use instead.
+    if (const std::string damage = damage_of(*from); !damage.empty())
+      throw std::runtime_error(previous ? "the previous consistent set is damaged too: " + damage +
+                                              "; start the run again with `mlcg run`"
+                                        : damaged_set_advice(*from, damage, run_dir));
     const config::CaseSpec cs = config::load_case(info.case_file);
     if (bus::case_hash(info.case_file) != from->case_hash)
       throw std::runtime_error(info.case_file + " changed since the checkpoint (hash " + bus::case_hash(info.case_file) +

@@ -14,8 +14,9 @@ namespace mlcg::launcher {
 // process runs and the bus security (hosts.hpp); the default is this machine over ipc.
 int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet,
                   Placement placement = {});
-// `mlcg resume RUN_DIR`: the same case, coupler and levels from checkpoints/manifest.json. Refused (2) while
-// another launcher holds the run folder (run_folder.hpp).
-int resume_hierarchy(const std::string& run_dir, bool quiet);
+// `mlcg resume RUN_DIR`: the same case, coupler and levels from checkpoints/manifest.json; with
+// `previous`, from the consistent set before it (kept for when the last one is damaged). Refused (2)
+// while another launcher holds the run folder (run_folder.hpp).
+int resume_hierarchy(const std::string& run_dir, bool quiet, bool previous = false);
 
 }  // namespace mlcg::launcher

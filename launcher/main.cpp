@@ -42,6 +42,9 @@ int main(int argc, char** argv) {
   std::string run_dir;
   resume->add_option("run_dir", run_dir, "run folder")->required()->check(CLI::ExistingDirectory);
   resume->add_flag("--quiet", quiet, "no progress line");
+  bool previous = false;
+  resume->add_flag("--previous", previous, "continue from the consistent set before the last one (when the last one "
+                                           "is damaged)");
   auto* ps = app.add_subcommand("ps", "processes and progress of a multi-level run");
   ps->add_option("run_dir", run_dir, "run folder")->required()->check(CLI::ExistingDirectory);
   auto* status = app.add_subcommand("status", "the multi-level runs under ./runs and their state");
@@ -58,7 +61,7 @@ int main(int argc, char** argv) {
   so.plots = !no_plots;
   if (study->parsed()) return launcher::run_study(so);
   if (swap->parsed()) return launcher::swap_command(run_dir, swap_level, swap_binary);
-  if (resume->parsed()) return launcher::resume_hierarchy(run_dir, quiet);
+  if (resume->parsed()) return launcher::resume_hierarchy(run_dir, quiet, previous);
   if (ps->parsed()) return launcher::print_ps(run_dir);
   if (status->parsed()) return launcher::print_status_all(runs_dir);
   return 0;

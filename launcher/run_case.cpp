@@ -76,7 +76,11 @@ void record_cpu_seconds(const fs::path& run_dir, double cpu) {
   auto j = read_json_or_null(run_dir / "summary.json");
   if (!j.is_object()) return;
   j["cpu_seconds"] = cpu;
-  io::write_file_atomic(run_dir / "summary.json", j.dump(2) + "\n");
+  try {
+    io::write_file_atomic(run_dir / "summary.json", j.dump(2) + "\n");
+  } catch (const std::exception& e) {  // a full disk: the level's summary stays as it was
+    std::fprintf(stderr, "mlcg: cannot add the CPU time to the summary: %s\n", e.what());
+  }
 }
 
 int run_launched(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet,

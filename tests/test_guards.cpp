@@ -4,6 +4,7 @@
 // stops the level within one step, naming the particle, with a final checkpoint.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -108,4 +109,29 @@ TEST(RunGuard, ExcessiveOverlapStopsTheRunWithACheckpointAndAFailedSummary) {
   EXPECT_NE(reason.find("overlap of 100.0 %"), std::string::npos) << reason;
   EXPECT_NE(reason.find("max_overlap_fraction"), std::string::npos) << reason;
   fs::remove_all(dir);
+}
+
+// 100,000 [[particles]] (issue 13: 690,000 hung before step 1): the guard considers one kind per
+// material, not one per particle (which made its pair loop O(N^2), 1e10 pairs here).
+TEST(StabilityGuard, ManyPlacedParticlesAreCheckedInLinearTime) {
+  auto cs = load("collision/head_on.toml");
+  cs.domain.min = {-0.1, -0.1, -0.1};
+  cs.domain.max = {0.1, 0.1, 0.1};
+  const config::ParticleSpec proto = cs.particles[0];
+  cs.particles.clear();
+  for (int i = 0; i < 47 && cs.particles.size() < 100000; ++i)
+    for (int j = 0; j < 47 && cs.particles.size() < 100000; ++j)
+      for (int k = 0; k < 47 && cs.particles.size() < 100000; ++k) {
+        config::ParticleSpec p = proto;
+        p.radius = 1e-3;
+        p.velocity = {};
+        p.position = {-0.09 + 0.0035 * i, -0.09 + 0.0035 * j, -0.09 + 0.0035 * k};
+        cs.particles.push_back(p);
+      }
+  const auto t0 = std::chrono::steady_clock::now();
+  Level level(cs, quiet());
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(level.particles().n_local(), 100000u);
+  EXPECT_LT(seconds, 30.0) << "setting up 100,000 placed particles took " << seconds << " s";
+  EXPECT_GT(level.stability().rayleigh_time, 0.0);
 }

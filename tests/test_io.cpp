@@ -1,9 +1,12 @@
 // File-output layer: atomic replacement, HDF5 round trips, XDMF series.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -312,7 +315,7 @@ TEST_F(IoTest, H5WriterIsAtomic) {
     H5Writer w(p);
     w.write("x", std::vector<double>{1, 2, 3});
     EXPECT_FALSE(fs::exists(p));
-    EXPECT_EQ(count_temps(dir), 1);
+    EXPECT_EQ(count_temps(dir), 0);  // built in memory: nothing is on disk before commit()
     w.commit();
     EXPECT_TRUE(w.committed());
     EXPECT_THROW(w.write("y", std::vector<double>{1}), std::runtime_error);
@@ -329,6 +332,43 @@ TEST_F(IoTest, H5WriterIsAtomic) {
   { H5Writer w(dir / "never.h5"); }
   EXPECT_FALSE(fs::exists(dir / "never.h5"));
   EXPECT_EQ(count_temps(dir), 0);
+}
+
+// A write that fails on the disk (here a file-size limit, EFBIG, as ENOSPC would on a full disk) is an
+// exception naming the file; the file committed before stays, no temporary is left, HDF5 goes on working.
+TEST_F(IoTest, H5WriterFailingOnDiskNamesTheFileAndKeepsTheOldOne) {
+  const fs::path p = dir / "kept.h5";
+  {
+    H5Writer w(p);
+    w.write("x", std::vector<double>{1, 2, 3});
+    w.commit();
+  }
+  std::string msg;
+  {
+    const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit old{};
+    getrlimit(RLIMIT_FSIZE, &old);
+    rlimit small = old;
+    small.rlim_cur = 64 * 1024;
+    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+    try {
+      H5Writer w(p);
+      w.write("x", std::vector<double>(1 << 20, 7.0));  // 8 MiB
+      w.commit();
+    } catch (const std::runtime_error& e) {
+      msg = e.what();
+    }
+    setrlimit(RLIMIT_FSIZE, &old);
+    std::signal(SIGXFSZ, old_handler);
+  }
+  EXPECT_NE(msg.find("'" + p.string() + "'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find(std::strerror(EFBIG)), std::string::npos) << msg;
+  EXPECT_EQ(count_temps(dir), 0);
+  EXPECT_EQ(H5Reader(p).read<double>("x"), (std::vector<double>{1, 2, 3}));
+  H5Writer again(dir / "after.h5");
+  again.write("y", std::vector<double>{4});
+  again.commit();
+  EXPECT_EQ(H5Reader(dir / "after.h5").read<double>("y"), (std::vector<double>{4}));
 }
 
 TEST_F(IoTest, H5CompressionRoundTripAndShrinks) {

@@ -291,6 +291,11 @@ TEST(MlcgRecovery, InterruptThenResumeGivesTheUninterruptedResult) {
   const uint64_t k = read_json(dir / "checkpoints" / "manifest.json")["interval"].get<uint64_t>();
   EXPECT_GE(k, 300u);
   EXPECT_LT(cut["simulated_time"].get<double>(), 0.59) << "the run was cut short";
+  // The set before the last is kept and named too: the run can fall back on it if the last is damaged.
+  const auto manifest = read_json(dir / "checkpoints" / "manifest.json");
+  ASSERT_TRUE(manifest.contains("previous")) << manifest.dump();
+  EXPECT_LT(manifest["previous"]["interval"].get<uint64_t>(), k);
+  EXPECT_TRUE(fs::exists(dir / "checkpoints" / manifest["previous"]["levels"]["fine"].get<std::string>()));
   // No temporary file of the consistent set is left.
   for (const auto& e : fs::recursive_directory_iterator(dir / "checkpoints"))
     EXPECT_EQ(e.path().string().find(".tmp."), std::string::npos) << e.path();

@@ -87,3 +87,107 @@ TEST(Restart, NPlusRestartPlusNEqualsTwoNBitForBit) {
   fs::remove_all(straight);
   fs::remove_all(split);
 }
+
+// ---- a checkpoint of another scene (issue 13) ----------------------------------------------
+
+namespace {
+
+constexpr uint64_t kShort = 2500;  // 0.03 s: three probe samples, particles falling and touching
+
+// Runs `cs` for kShort steps into `dir` (checkpoint.h5 at the end).
+void first_part(const config::CaseSpec& cs, const fs::path& dir) {
+  LevelOptions o = quiet();
+  o.out_dir = dir;
+  o.max_steps = kShort;
+  Level level(cs, o);
+  ASSERT_EQ(level.run(), RunStatus::StepLimit);
+}
+
+// The message of restarting `cs` from dir's checkpoint ("" when it starts).
+std::string restart_refusal(const config::CaseSpec& cs, const fs::path& dir) {
+  LevelOptions o = quiet();
+  o.restart = dir / "checkpoint.h5";
+  try {
+    Level level(cs, o);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+struct Foreign : ::testing::Test {
+  void SetUp() override {
+    cs = small_hopper(kShort);
+    dir = fresh_dir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+    first_part(cs, dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  config::CaseSpec cs;
+  fs::path dir;
+};
+
+}  // namespace
+
+TEST_F(Foreign, AnotherDensityIsRefusedBeforeStep1NamingIt) {
+  auto other = cs;
+  other.materials[0].density = 2000.0;
+  const std::string msg = restart_refusal(other, dir);
+  EXPECT_NE(msg.find("material 'beads' density 1000 in the checkpoint, 2000 in the case"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("checkpoint.h5"), std::string::npos) << msg;
+}
+
+TEST_F(Foreign, EveryOtherDifferenceIsNamedTogether) {
+  auto other = cs;
+  other.interactions[1].friction = 0.9;
+  other.insertions[0].count = 800;
+  other.grids[0].cell_size *= 2.0;
+  other.walls.pop_back();
+  other.particles.push_back({"beads", 2e-3, {0.0, 0.0, 0.1}, {}, {}, {}});
+  const std::string msg = restart_refusal(other, dir);
+  for (const char* what : {"interaction between 'beads' and 'steel' friction", "insertion 'fill' count 600 in the "
+                           "checkpoint, 800 in the case", "grid 'hopper' cell_size", "wall 'lid' is in the checkpoint "
+                           "but not in the case", "particles placed by the case 0 in the checkpoint, 1 in the case"})
+    EXPECT_NE(msg.find(what), std::string::npos) << "no '" << what << "' in: " << msg;
+}
+
+TEST_F(Foreign, ReorderedMaterialsContinueAsTheSameScene) {
+  auto reordered = cs;
+  std::swap(reordered.materials[0], reordered.materials[1]);
+  const fs::path same = fresh_dir("same_order");
+  fs::copy(dir, same, fs::copy_options::recursive);
+  for (const auto& [spec, folder] : {std::pair(&cs, same), std::pair(&reordered, dir)}) {
+    LevelOptions o = quiet();
+    o.out_dir = folder;
+    o.restart = folder / "checkpoint.h5";
+    o.max_steps = kShort;
+    Level level(*spec, o);
+    ASSERT_EQ(level.run(), RunStatus::StepLimit) << folder;
+  }
+  io::H5Reader a(same / "checkpoint.h5"), b(dir / "checkpoint.h5");
+  ASSERT_EQ(b.attr_uint64("/", "step"), 2 * kShort);
+  for (const char* v : {"particles/x", "particles/v", "particles/omega"}) expect_bitwise(a.read_vec3(v), b.read_vec3(v), v);
+  fs::remove_all(same);
+}
+
+TEST_F(Foreign, AnAddedProbeMeasuresFromTheRestartAndTheOthersAreKept) {
+  auto more = cs;
+  more.probes.insert(more.probes.begin(), more.probes[0]);  // a new one ahead of the old: matched by name
+  more.probes[0].name = "upper";
+  more.probes[0].point.z += 0.02;
+  LevelOptions o = quiet();
+  o.out_dir = dir;
+  o.restart = dir / "checkpoint.h5";
+  o.max_steps = kShort;
+  Level level(more, o);
+  const double restart_t = level.time();
+  io::H5Reader before(dir / "checkpoint.h5");
+  const auto old_rates = before.read<double>("probes/0/rate");
+  ASSERT_EQ(level.run(), RunStatus::StepLimit);
+  const auto& upper = level.probes()[0].state().samples;
+  const auto& outlet = level.probes()[1].state().samples;
+  ASSERT_FALSE(upper.empty());
+  // Its first sample spans one interval from the restart (not the time since t = 0).
+  EXPECT_NEAR(upper.front().t_end, restart_t + 1.0 / cs.probes[0].sample_rate, 1.5 * level.dt());
+  ASSERT_GT(outlet.size(), old_rates.size());
+  for (size_t k = 0; k < old_rates.size(); ++k) EXPECT_EQ(outlet[k].rate, old_rates[k]) << k;
+}

@@ -27,6 +27,8 @@ using namespace detail;
 namespace {
 
 const char* const kAxis[3] = {"x", "y", "z"};
+constexpr double kMaxYoungsModulus = 1e14;     // Pa
+constexpr double kMinProgressInterval = 0.1;   // wall s: more often, the log grows by a line a step
 
 void read_materials(const Table& root, CaseSpec& spec, Names& names) {
   for (const Table& t : array_of_tables(root, "materials")) {
@@ -35,7 +37,11 @@ void read_materials(const Table& root, CaseSpec& spec, Names& names) {
     m.name = t.required_string("name", "the material's name, e.g. name = \"glass\"");
     names.materials.add(t, m.name);
     m.youngs_modulus = t.required_number("youngs_modulus", "Young's modulus in Pa (> 0)");
+    // Diamond has 1.2e12 Pa; far above, the Hertz coefficients overflow and the guard asks for dt = 0.
     t.positive("youngs_modulus", m.youngs_modulus, "Pa");
+    t.check("youngs_modulus", m.youngs_modulus <= kMaxYoungsModulus,
+            num(m.youngs_modulus) + " is outside (0, " + num(kMaxYoungsModulus) +
+                "] Pa; no solid is stiffer than about 1.2e12 Pa (diamond)");
     m.poisson_ratio = t.required_number("poisson_ratio", "Poisson's ratio in [0, 0.5)");
     t.check("poisson_ratio", m.poisson_ratio >= 0.0 && m.poisson_ratio < 0.5,
             num(m.poisson_ratio) + " is outside [0, 0.5)");
@@ -218,7 +224,10 @@ void read_time(const Table& root, CaseSpec& spec, const Names& names) {
     t->fail("end", std::string("expected a number or a table, found ") + type_name(*end) + "; give " + how);
   }
   tm.progress_interval = t->number("progress_interval", tm.progress_interval);
-  t->positive("progress_interval", tm.progress_interval, "s of wall time");
+  t->check("progress_interval", tm.progress_interval >= kMinProgressInterval,
+           num(tm.progress_interval) + " is below " + num(kMinProgressInterval) +
+               " s of wall time; progress lines more often would fill the log; give progress_interval >= " +
+               num(kMinProgressInterval));
 }
 
 // Every pair of materials that can meet needs an [[interactions]] entry: each
@@ -316,6 +325,7 @@ std::string folder_of(const std::string& path) {
 
 CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_messages) {
   const Doc doc{path_for_messages, folder_of(path_for_messages)};
+  scan_text(doc, toml_text);
   toml::table tbl;
   try {
     tbl = toml::parse(toml_text, std::string_view(path_for_messages));
@@ -325,7 +335,7 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   const Table root(doc, tbl, "");
   root.allow({"title", "seed", "gravity", "materials", "interactions", "contact", "levels", "domain", "walls",
               "insertion", "particles", "initial", "events", "probes", "grids", "output", "stability", "time",
-              "orifice", "coupling", "launcher", "swap"},
+              "orifice", "coupling", "launcher", "swap", "limits"},
              "the top level");
   for (const char* k : {"materials", "interactions", "levels"})
     if (!root.has(k)) fail(doc, 1, k, "missing required table; add at least one [[" + std::string(k) + "]] entry");
@@ -364,6 +374,8 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   read_stability(root, spec);
   read_time(root, spec, names);
   check_pairs(root, spec);
+  read_limits(root, spec);
+  check_limits(root, spec);
   return spec;
 }
 

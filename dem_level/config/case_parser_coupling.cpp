@@ -19,7 +19,8 @@ const char* const kAxis[3] = {"x", "y", "z"};
 
 constexpr double kMinFineSteps = 15.0;   // automatic interval: at least this many steps of the finest dt
 constexpr int kMaxMultiples = 10000;      // multiples of the largest dt tried before giving up
-constexpr double kReachTolerance = 1e-9;  // relative: a multiple this close below at_least reaches it
+constexpr double kReachTolerance = 1e-9;
+constexpr double kMinHeartbeat = 0.01;    // wall s  // relative: a multiple this close below at_least reaches it
 
 bool divides(double dt, double interval) { return whole_steps(interval, dt) > 0; }
 
@@ -170,7 +171,11 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
            "'" + c.endpoint + "' is not an endpoint the levels can reach; give tcp://HOST:PORT or ipc://PATH, or "
            "leave it out (ipc:// in the run folder)");
   c.heartbeat = t->number("heartbeat", c.heartbeat);
+  // Faster, the bus would carry little but heartbeats.
   t->positive("heartbeat", c.heartbeat, "s of wall time");
+  t->check("heartbeat", c.heartbeat >= kMinHeartbeat,
+           num(c.heartbeat) + " is below " + num(kMinHeartbeat) + " s of wall time; give heartbeat >= " +
+               num(kMinHeartbeat));
   c.timeout = t->number("timeout", c.timeout);
   t->check("timeout", c.timeout > c.heartbeat,
            num(c.timeout) + " is not longer than heartbeat = " + num(c.heartbeat) +

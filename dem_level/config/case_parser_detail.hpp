@@ -32,6 +32,10 @@ int line_of(const toml::node& n);
 // Throws CaseError "FILE:LINE: KEY: WHAT" (": KEY" left out when key is empty).
 [[noreturn]] void fail(const Doc& doc, int line, std::string_view key, const std::string& what);
 
+// Refuses text the TOML reader cannot take safely (case_text_scan.cpp): a line
+// longer than 65,536 characters, a dotted key or table header of more than 64 parts.
+void scan_text(const Doc& doc, std::string_view text);
+
 // ---- one table being read -------------------------------------------------
 class Table {
  public:
@@ -130,6 +134,14 @@ void read_orifice(const Table& root, CaseSpec& spec);
 // More than one [[levels]] entry without [coupling] is refused by the levels reader.
 void read_coupling(const Table& root, CaseSpec& spec, const Names& names);
 void read_launcher(const Table& root, CaseSpec& spec);
+
+// [limits] (case_parser_limits.cpp), and the estimates checked against them once the
+// whole case is read: steps to the end, files written, memory held.
+void read_limits(const Table& root, CaseSpec& spec);
+void check_limits(const Table& root, const CaseSpec& spec);
+// An insertion without a rate asks for every particle in its first batch: refused at t's count or
+// mass when they cannot fit in the space that batch fills (the batch would try for hours).
+void check_batch_room(const Table& t, const InsertionSpec& in, const CaseSpec& spec, double alpha);
 
 // min and max of a box at t's keys "min" and "max": both required, min < max in
 // every axis; `what` names the box in messages ("the grid box").

@@ -283,6 +283,7 @@ void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
       t.check("follow_height", s.follow_gap >= 0.0, "follow_height needs follow_gap (the slab follows the heap)");
       s.follow_height = *h;
     }
+    if (!rate && !mass_rate) check_batch_room(t, s, spec, alpha);
     const int64_t attempts = t.integer("max_attempts").value_or(s.max_attempts);
     t.check("max_attempts", attempts >= 1 && attempts <= 1'000'000'000,
             std::to_string(attempts) + " is not a valid number of attempts; give an integer >= 1");

@@ -259,6 +259,13 @@ struct LauncherSpec {              // [launcher]: how `mlcg run` supervises a hi
   SourceLoc loc;
 };
 
+struct LimitsSpec {               // [limits]: what a case may ask of the machine, estimated before step 1
+  int64_t max_steps = 1'000'000'000;     // max_steps >= 1: time steps of any level to reach the end
+  int64_t max_output_files = 20'000;     // max_output_files >= 1: snapshots, grid frames and checkpoints written
+  double max_memory_gb = 16.0;           // max_memory_gb > 0: particles, cells, samples and series rows held
+  SourceLoc loc;
+};
+
 struct CaseSpec {
   std::string path;                // the case file as given
   std::string dir;                 // its folder (relative files resolve here)
@@ -284,6 +291,7 @@ struct CaseSpec {
   std::optional<CouplingSpec> coupling;  // [coupling]: only in multi-level cases
   LauncherSpec launcher;                 // [launcher]: only in multi-level cases
   std::vector<SwapSpec> swaps;           // [[swap]]: only in multi-level cases
+  LimitsSpec limits;                     // [limits]
 };
 
 }  // namespace mlcg::config

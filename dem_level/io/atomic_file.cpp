@@ -92,8 +92,8 @@ void AtomicPath::discard() noexcept {
   ::unlink(temp_.c_str());
 }
 
-void write_file_atomic(const fs::path& p, std::string_view content) {
-  AtomicPath ap(p);
+void write_temp(const AtomicPath& ap, std::string_view content) {
+  const fs::path& p = ap.final_path();
   const int fd = ::open(ap.temp_path().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) fail("cannot create temp file for", p, errno);
   const char* data = content.data();
@@ -111,6 +111,11 @@ void write_file_atomic(const fs::path& p, std::string_view content) {
   }
   // close() can report deferred write errors (NFS, quota): check it.
   if (::close(fd) != 0) fail("close failed for", p, errno);
+}
+
+void write_file_atomic(const fs::path& p, std::string_view content) {
+  AtomicPath ap(p);
+  write_temp(ap, content);
   ap.commit();
 }
 

@@ -12,6 +12,11 @@ namespace mlcg::io {
 // parent directory if needed. Throws std::runtime_error naming the path and errno.
 void write_file_atomic(const std::filesystem::path& p, std::string_view content);
 
+class AtomicPath;
+// Writes `content` to ap's temp file (created or truncated; not yet committed). Throws
+// std::runtime_error naming the final path and errno (e.g. "No space left on device").
+void write_temp(const AtomicPath& ap, std::string_view content);
+
 // RAII temp-path holder for writers that need a file name (e.g. HDF5):
 // write to temp_path(), close the file, then commit(). If commit() is never
 // called (exception, early return) the destructor removes the temp file.

@@ -15,6 +15,8 @@ static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 arrays are written as n 
 
 namespace {
 
+constexpr size_t kCoreIncrement = 4u << 20;  // the in-memory file grows by 4 MiB
+
 // Library-wide: silence HDF5's stderr dump; we turn failures into exceptions.
 // Per thread in thread-safe builds, hence called from every constructor.
 void silence_hdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
@@ -121,7 +123,11 @@ hid_t make_fapl() {
 
 H5Writer::H5Writer(fs::path path) : tmp_(std::move(path)) {
   silence_hdf5();
+  // The file is built in memory (the core driver, no backing store) and written by commit() with
+  // plain POSIX calls: a full disk is then a clean exception naming the file, never HDF5 failing
+  // to flush a half-written file (which left it open and crashed HDF5's teardown at exit).
   Hid fapl(make_fapl(), H5Pclose);
+  if (H5Pset_fapl_core(fapl, kCoreIncrement, false) < 0) fail("H5Writer: cannot set the in-memory driver");
   file_ = H5Fcreate(tmp_.temp_path().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
   if (file_ < 0) fail("H5Writer: cannot create '" + tmp_.temp_path().string() + "'");
 }
@@ -237,9 +243,16 @@ void H5Writer::set_attr(const std::string& obj, const std::string& name, std::st
 
 void H5Writer::commit() {
   require_open("commit");
-  const herr_t rc = H5Fclose(file_);
+  std::string image;
+  const ssize_t n = H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0 ? -1 : H5Fget_file_image(file_, nullptr, 0);
+  if (n > 0) {
+    image.resize(static_cast<size_t>(n));
+    if (H5Fget_file_image(file_, image.data(), image.size()) != n) image.clear();
+  }
+  const herr_t rc = H5Fclose(file_);  // in memory: nothing is written here
   file_ = -1;
-  if (rc < 0) fail("H5Writer: cannot close '" + tmp_.temp_path().string() + "'");
+  if (image.empty() || rc < 0) fail("H5Writer: cannot complete '" + tmp_.final_path().string() + "' in memory");
+  write_temp(tmp_, image);
   tmp_.commit();
   committed_ = true;
 }

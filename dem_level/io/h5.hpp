@@ -22,8 +22,9 @@ concept H5Element = std::same_as<T, double> || std::same_as<T, std::int64_t> ||
                     std::same_as<T, std::int32_t> || std::same_as<T, std::uint64_t> ||
                     std::same_as<T, std::uint8_t>;
 
-// Writes a new HDF5 file under a temp name; commit() closes it and renames it
-// over `path`. Destroyed without commit(): the temp file is removed and any
+// Builds a new HDF5 file in memory; commit() writes it under a temp name with
+// plain system calls (a full disk is an exception naming the file) and renames
+// it over `path`. Destroyed without commit(): nothing is written and any
 // existing file at `path` is left untouched.
 // Paths are "a/b/x" (leading '/' optional); missing parent groups are created.
 class H5Writer {

@@ -2,6 +2,7 @@
 // (written to a temporary name, then renamed). Restarting from it and running
 // N steps gives bit for bit the state of an uninterrupted run, because both
 // rebuild their neighbour lists at the step after the checkpoint.
+#include <cmath>
 #include <cstring>
 #include <sstream>
 
@@ -9,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "io/h5.hpp"
+#include "level/checkpoint_scene.hpp"
 #include "level/level.hpp"
 
 namespace mlcg {
@@ -54,8 +56,12 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   const auto all = comm_.gather0(buf);
   const auto all_open = comm_.gather0(om);
   const CouplingReport coupling = coupling_report();  // collective; zeros when uncoupled
-  if (comm_.rank() != 0) return;
+  if (comm_.rank() == 0) rank0_output([&] { write_checkpoint_file(path, all, all_open, coupling); });
+  sync_output();
+}
 
+void Level::write_checkpoint_file(const std::filesystem::path& path, const std::vector<char>& all,
+                                  const std::vector<char>& all_open, const CouplingReport& coupling) const {
   io::H5Writer w(path);
   w.set_attr("/", "format", "mlcg-level-checkpoint");
   w.set_attr("/", "version", kCheckpointVersion);
@@ -121,6 +127,11 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   std::memcpy(opens.data(), all_open.data(), all_open.size());
   w.write("probes/open_mass_per_rank", opens);
 
+  write_scene_state(w);
+  w.commit();
+}
+
+void Level::write_scene_state(io::H5Writer& w) const {
   std::vector<uint8_t> active;
   for (size_t k = 0; k < walls_.walls(); ++k) active.push_back(walls_.active(k) ? 1 : 0);
   w.write("walls/active", active);
@@ -182,10 +193,11 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   w.write("events/fired", fired);
   w.write("events/fired_at", fired_at);
   w.write("events/next_check", next_check);
+  const std::string scene = scene_record(cs_, lvl_, case_placed_).dump();
+  w.write("scene/record", reinterpret_cast<const uint8_t*>(scene.data()), scene.size());
   std::string rows;
   for (const auto& r : series_rows_) rows += r + "\n";
   w.write("series/rows", reinterpret_cast<const uint8_t*>(rows.data()), rows.size());
-  w.commit();
 }
 
 void Level::load_checkpoint(const std::filesystem::path& path) {
@@ -200,6 +212,7 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
     throw std::runtime_error(fmt::format("{}: written with dt = {} s and alpha = {}, but the case now has dt = {} s "
                                          "and alpha = {}",
                                          where, r.attr_double("/", "dt"), r.attr_double("/", "alpha"), dt_, alpha_));
+  const SceneMap map = check_scene(r);
   step_ = r.attr_uint64("/", "step");
   next_id_ = r.attr_int64("/", "next_id");
   removed_ = r.attr_int64("/", "removed");
@@ -230,7 +243,36 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   }
   std::istringstream rng(r.attr_string("/", "rng"));
   rng >> rng_;
+  load_particles(r, map);
+  restore_scene_state(r, map);
+  rebuild_pending_ = true;
+  log_->info("restarted from {} at step {} (t = {:.6g} s) with {} particles", where, step_, time(), p_.n_local());
+}
 
+SceneMap Level::check_scene(const io::H5Reader& r) const {
+  // Checkpoints written before the record existed continue unchecked, in the case's order.
+  nlohmann::json saved;
+  if (r.has("scene/record")) {
+    const auto bytes = r.read<uint8_t>("scene/record");
+    saved = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
+    if (saved.is_discarded())
+      throw std::runtime_error(r.path().string() + ": its scene record (scene/record) is not valid JSON");
+  } else {
+    log_->warn("{}: written before checkpoints recorded their scene; the case cannot be checked against it",
+               r.path().string());
+  }
+  const nlohmann::json now = scene_record(cs_, lvl_, case_placed_);
+  if (saved.is_object()) {
+    const auto diffs = scene_differences(saved, now);
+    if (!diffs.empty())
+      throw std::runtime_error(fmt::format("{}: written for another scene than {}: {}; restart with the case the "
+                                           "checkpoint was written with, or start the run afresh",
+                                           r.path().string(), cs_.path, fmt::join(diffs, "; ")));
+  }
+  return scene_map(saved, now);
+}
+
+void Level::load_particles(const io::H5Reader& r, const SceneMap& map) {
   // Every rank reads all particles and keeps those in its box. On the grid the
   // checkpoint was written with, the boxes are restored exactly, so each rank
   // gets back its particles in their order (a bit-identical continuation).
@@ -246,6 +288,13 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   p.inv_inertia = r.read<double>("particles/inv_inertia");
   p.id = r.read<int64_t>("particles/id");
   p.material = r.read<int32_t>("particles/material");
+  for (auto& m : p.material) {  // the case may list the same materials in another order
+    const int to = m >= 0 && static_cast<size_t>(m) < map.material_of_saved.size() ? map.material_of_saved[m] : -1;
+    if (to < 0)
+      throw std::runtime_error(fmt::format("{}: a particle has material {}, which the case does not define",
+                                           r.path().string(), m));
+    m = to;
+  }
   const auto grid = r.read<int32_t>("decomposition/grid");
   const bool same_grid = grid.size() == 3 && grid[0] == dec_.grid()[0] && grid[1] == dec_.grid()[1] &&
                          grid[2] == dec_.grid()[2];
@@ -253,8 +302,8 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
     dec_.set_cuts({r.read<double>("decomposition/cuts_x"), r.read<double>("decomposition/cuts_y"),
                    r.read<double>("decomposition/cuts_z")});
   else
-    log_->info("{}: written on a {} x {} x {} grid, continuing on {} x {} x {}", where, grid[0], grid[1], grid[2],
-               dec_.grid()[0], dec_.grid()[1], dec_.grid()[2]);
+    log_->info("{}: written on a {} x {} x {} grid, continuing on {} x {} x {}", r.path().string(), grid[0], grid[1],
+               grid[2], dec_.grid()[0], dec_.grid()[1], dec_.grid()[2]);
   std::vector<int32_t> mine;
   for (size_t i = 0; i < p.x.size(); ++i)
     if (dec_.owner(p.x[i]) == comm_.rank()) mine.push_back(static_cast<int32_t>(i));
@@ -267,17 +316,17 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   pair_hist_.permute(mine, mine.size());
   wall_hist_.permute(mine, mine.size());
   history_loaded_ = true;
+}
 
-  const auto opens = r.read<double>("probes/open_mass_per_rank");
-  const size_t writer_ranks = probes_.empty() ? 0 : opens.size() / probes_.size();
+void Level::restore_scene_state(const io::H5Reader& r, const SceneMap& map) {
   const auto active = r.read<uint8_t>("walls/active");
   if (active.size() != walls_.walls())
-    throw std::runtime_error(fmt::format("{}: has {} walls, the case has {}", where, active.size(), walls_.walls()));
-  for (size_t k = 0; k < active.size(); ++k) walls_.set_active(k, active[k] != 0);
-
+    throw std::runtime_error(fmt::format("{}: has {} walls, the case has {}", r.path().string(), active.size(),
+                                         walls_.walls()));
+  for (size_t k = 0; k < active.size(); ++k) walls_.set_active(k, active[static_cast<size_t>(map.walls[k])] != 0);
   for (size_t k = 0; k < ins_.size(); ++k) {
     auto& s = ins_[k].state();
-    const std::string g = fmt::format("insertion/{}", k);
+    const std::string g = fmt::format("insertion/{}", map.insertions[k]);
     s.requested = r.attr_int64(g, "requested");
     s.placed = r.attr_int64(g, "placed");
     s.failed = r.attr_int64(g, "failed");
@@ -288,50 +337,19 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
     s.stalled = static_cast<int>(r.attr_int64(g, "stalled"));
     s.done = r.attr_int64(g, "done") != 0;
   }
-  for (size_t k = 0; k < probes_.size(); ++k) {
-    auto& pr = probes_[k];
-    auto& s = pr.state();
-    const std::string g = fmt::format("probes/{}", k);
-    s.sample_start = r.attr_double(g, "sample_start");
-    // This rank's part of the open sample: its own if the rank count is the same, else all on rank 0.
-    s.mass = 0.0;
-    if (writer_ranks == static_cast<size_t>(comm_.size()))
-      s.mass = opens[static_cast<size_t>(comm_.rank()) * probes_.size() + k];
-    else if (comm_.rank() == 0)
-      for (size_t q = 0; q < writer_ranks; ++q) s.mass += opens[q * probes_.size() + k];
-    s.total_mass = r.attr_double(g, "total_mass");
-    pr.params().window_start = r.attr_double(g, "window_start");
-    pr.params().window_end = r.attr_double(g, "window_end");
-    pr.params().window_known = r.attr_int64(g, "window_known") != 0;
-    const auto te = r.read<double>(g + "/t_end");
-    const auto rate = r.read<double>(g + "/rate");
-    s.samples.clear();
-    for (size_t q = 0; q < te.size(); ++q) s.samples.push_back({te[q], rate[q]});
-    // Sides of the plane as they are now, as the uninterrupted run knows them.
-    pr.refresh(p_, skin_);
-  }
-  for (size_t k = 0; k < grids_.size(); ++k) {
-    auto& gr = grids_[k];
-    auto& s = gr.grid.state();
-    const std::string g = fmt::format("grids/{}", k);
-    s.samples = r.attr_int64(g, "samples");
-    gr.next_output = r.attr_double(g, "next_output");
-    gr.outputs = r.attr_int64(g, "outputs");
-    s.phi = r.read<double>(g + "/phi");
-    s.mass = r.read<double>(g + "/mass");
-    s.max_speed = r.read<double>(g + "/max_speed");
-    s.stress6 = r.read<double>(g + "/stress6");
-    s.count = r.read<double>(g + "/count");
-    s.momentum = r.read_vec3(g + "/momentum");
-  }
+  // Events first: a probe added since counts its window from an event that has already fired.
   const auto fired = r.read<uint8_t>("events/fired");
   const auto fired_at = r.read<double>("events/fired_at");
   const auto next_check = r.read<double>("events/next_check");
-  for (size_t e = 0; e < events_.size() && e < fired.size(); ++e) {
-    events_[e].fired = fired[e] != 0;
-    events_[e].fired_at = fired_at[e];
-    events_[e].next_check = next_check[e];
+  for (size_t e = 0; e < events_.size(); ++e) {
+    const int from = map.events[e];
+    if (from < 0 || static_cast<size_t>(from) >= fired.size()) continue;  // added since: not fired yet
+    events_[e].fired = fired[static_cast<size_t>(from)] != 0;
+    events_[e].fired_at = fired_at[static_cast<size_t>(from)];
+    events_[e].next_check = next_check[static_cast<size_t>(from)];
   }
+  restore_probes(r, map);
+  restore_grids(r, map);
   const auto rows = r.read<uint8_t>("series/rows");
   series_rows_.clear();
   std::string line;
@@ -343,8 +361,68 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
       line.push_back(static_cast<char>(c));
     }
   }
-  rebuild_pending_ = true;
-  log_->info("restarted from {} at step {} (t = {:.6g} s) with {} particles", where, step_, time(), p_.n_local());
+}
+
+void Level::restore_probes(const io::H5Reader& r, const SceneMap& map) {
+  const auto opens = r.read<double>("probes/open_mass_per_rank");
+  const size_t saved = map.saved_probes;
+  const size_t writer_ranks = saved == 0 ? 0 : opens.size() / saved;
+  for (size_t k = 0; k < probes_.size(); ++k) {
+    auto& pr = probes_[k];
+    auto& s = pr.state();
+    pr.refresh(p_, skin_);  // sides of the plane as they are now, as the uninterrupted run knows them
+    const int from = map.probes[k];
+    if (from < 0) {  // added since the checkpoint: it measures from now on
+      s.sample_start = time();
+      for (size_t e = 0; e < events_.size(); ++e)
+        if (events_[e].fired && cs_.events[e].name == probe_events_[k]) {
+          pr.params().window_start = events_[e].fired_at + cs_.probes[k].window_start;
+          pr.params().window_end = events_[e].fired_at + cs_.probes[k].window_end;
+          pr.params().window_known = true;
+        }
+      log_->info("probe '{}' is not in the checkpoint: it measures from t = {:.6g} s on", pr.params().name, time());
+      continue;
+    }
+    const auto j = static_cast<size_t>(from);
+    const std::string g = fmt::format("probes/{}", j);
+    s.sample_start = r.attr_double(g, "sample_start");
+    // This rank's part of the open sample: its own if the rank count is the same, else all on rank 0.
+    s.mass = 0.0;
+    if (writer_ranks == static_cast<size_t>(comm_.size()))
+      s.mass = opens[static_cast<size_t>(comm_.rank()) * saved + j];
+    else if (comm_.rank() == 0)
+      for (size_t q = 0; q < writer_ranks; ++q) s.mass += opens[q * saved + j];
+    s.total_mass = r.attr_double(g, "total_mass");
+    pr.params().window_start = r.attr_double(g, "window_start");
+    pr.params().window_end = r.attr_double(g, "window_end");
+    pr.params().window_known = r.attr_int64(g, "window_known") != 0;
+    const auto te = r.read<double>(g + "/t_end");
+    const auto rate = r.read<double>(g + "/rate");
+    s.samples.clear();
+    for (size_t q = 0; q < te.size(); ++q) s.samples.push_back({te[q], rate[q]});
+  }
+}
+
+void Level::restore_grids(const io::H5Reader& r, const SceneMap& map) {
+  for (size_t k = 0; k < grids_.size(); ++k) {
+    auto& gr = grids_[k];
+    auto& s = gr.grid.state();
+    if (map.grids[k] < 0) {  // added since the checkpoint: its first average ends at the next whole output interval
+      gr.next_output = (std::floor(time() / gr.output_interval + 1e-9) + 1.0) * gr.output_interval;
+      log_->info("grid '{}' is not in the checkpoint: it averages from t = {:.6g} s on", cs_.grids[k].name, time());
+      continue;
+    }
+    const std::string g = fmt::format("grids/{}", map.grids[k]);
+    s.samples = r.attr_int64(g, "samples");
+    gr.next_output = r.attr_double(g, "next_output");
+    gr.outputs = r.attr_int64(g, "outputs");
+    s.phi = r.read<double>(g + "/phi");
+    s.mass = r.read<double>(g + "/mass");
+    s.max_speed = r.read<double>(g + "/max_speed");
+    s.stress6 = r.read<double>(g + "/stress6");
+    s.count = r.read<double>(g + "/count");
+    s.momentum = r.read_vec3(g + "/momentum");
+  }
 }
 
 }  // namespace mlcg

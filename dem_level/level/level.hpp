@@ -12,6 +12,7 @@
 // statistics after the step. Uncoupled, each of these is one untaken branch.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <random>
 #include <stdexcept>
@@ -35,7 +36,8 @@
 namespace spdlog { class logger; }
 
 namespace mlcg {
-namespace io { class SnapshotSeries; class GridSeries; }
+namespace io { class SnapshotSeries; class GridSeries; class H5Reader; class H5Writer; }
+struct SceneMap;
 namespace bus { class CouplingGeometry; }
 
 struct LevelOptions {
@@ -50,6 +52,9 @@ struct LevelOptions {
 
 // Raised when the level stops on a guard: NaN/inf or an excessive overlap.
 struct GuardStop : std::runtime_error { using std::runtime_error::runtime_error; };
+// Raised on every rank when the run's output could not be written (a full disk): the message names the
+// file. Earlier files and checkpoints stay as they were (each is replaced atomically).
+struct OutputStop : std::runtime_error { using std::runtime_error::runtime_error; };
 // Raised when a coupled level cannot go on: the coupler fell silent, refused or sent unusable commands.
 struct CouplingStop : std::runtime_error { using std::runtime_error::runtime_error; };
 // Raised when a signal (or interrupt()) stops the level inside a long phase of a step (an insertion batch);
@@ -132,7 +137,8 @@ class Level {
   // Cell-grid averages since the last output of grid g (resets them).
   GridAverages take_grid_averages(size_t g) { return grids_[g].grid.take_averages(); }
 
-  // Collective: the state of every rank, gathered and written by rank 0.
+  // Collective: the state of every rank, gathered and written by rank 0 (throws OutputStop on every
+  // rank when it cannot be written).
   void write_checkpoint(const std::filesystem::path& path) const;
   void interrupt() { interrupted_ = true; }
   // This rank was asked to stop (interrupt() or a signal); the run loop agrees over the ranks.
@@ -170,6 +176,13 @@ class Level {
   void setup_insertions();
   void setup_measurements();
   void load_checkpoint(const std::filesystem::path& path);
+  // Parts of load_checkpoint (checkpoint.cpp): the checkpoint's scene against the case (refused when
+  // it is another), the particles, and the state of walls, insertions, events, probes, grids, series.
+  SceneMap check_scene(const io::H5Reader& r) const;
+  void load_particles(const io::H5Reader& r, const SceneMap& map);
+  void restore_scene_state(const io::H5Reader& r, const SceneMap& map);
+  void restore_probes(const io::H5Reader& r, const SceneMap& map);
+  void restore_grids(const io::H5Reader& r, const SceneMap& map);
   void refuse_placed_overlap();   // collective; after the forces at t = 0
   void load_initial_state(std::vector<ParticleKind>& kinds, std::vector<PlacedParticle>& placed, bool add);
 
@@ -185,8 +198,21 @@ class Level {
   void after_step();              // measurements and outputs at the new time
   void write_outputs(bool final);
   void write_snapshot();             // collective: gathered on rank 0
+  void write_snapshot_file(const std::vector<char>& gathered);  // rank 0
+  void write_series_files(std::vector<std::string> rows, const std::string& last, bool final) const;  // rank 0
+  void write_summary_file(const std::string& status, const std::string& reason, const MassBalance& b,
+                          const double* sums, const CouplingReport& cr) const;  // rank 0
   std::string series_row() const;
   void write_summary(const std::string& status, const std::string& reason) const;
+  // The final outputs and log lines of run(); after a failed output only the summary is tried.
+  void finish_run(RunStatus status, const std::string& reason, bool output_failed);
+  void write_checkpoint_file(const std::filesystem::path& path, const std::vector<char>& particles,
+                             const std::vector<char>& open_mass, const CouplingReport& coupling) const;
+  void write_scene_state(io::H5Writer& w) const;  // walls, insertions, probes, grids, events, series, scene
+  // Output written on rank 0 that can fail (a full disk): the first failure is kept, and every
+  // rank throws OutputStop with it at the next sync_output() (collective).
+  void rank0_output(const std::function<void()>& write) const;
+  void sync_output() const;
   void progress(bool force);
   std::string describe_particle(size_t i) const;
   void resolve_end_time();
@@ -248,7 +274,8 @@ class Level {
   int64_t removed_ = 0;
   int64_t removed_by_[kExits] = {0, 0, 0};
   double removed_mass_by_[kExits] = {0.0, 0.0, 0.0};
-  int64_t explicit_count_ = 0;      // the case's [[particles]] and [initial] particles
+  int64_t explicit_count_ = 0;      // the case's [[particles]] and [initial] particles (and the coupler's)
+  int64_t case_placed_ = 0;         // the case's own: [[particles]] and [initial] on this level
   double explicit_mass_ = 0.0;
   CouplingReport coupling_restored_;  // a coupled level's counters from its checkpoint (inserted, worst overlap)
   double removed_mass_ = 0.0;
@@ -265,6 +292,7 @@ class Level {
 
   // Output and reporting (not physics state).
   std::shared_ptr<spdlog::logger> log_;
+  mutable std::string output_error_;  // rank 0: the first output that could not be written
   std::unique_ptr<io::SnapshotSeries> snaps_;
   std::vector<std::string> series_rows_;
   PhaseTimes times_;

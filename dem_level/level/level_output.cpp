@@ -24,6 +24,31 @@ std::string human_duration(double s) {
   if (s < 3600) return fmt::format("{:.0f} min {:02.0f} s", std::floor(s / 60), std::fmod(s, 60));
   return fmt::format("{:.0f} h {:02.0f} min", std::floor(s / 3600), std::fmod(s, 3600) / 60);
 }
+// summary.json's entry of each probe: its window, mean, spread and the mean's interval.
+nlohmann::json probe_entries(const std::vector<MassFlowProbe>& all) {
+  using nlohmann::json;
+  json probes = json::array();
+  for (const auto& pr : all) {
+    const auto w = pr.window_stats();
+    json q;
+    q["name"] = pr.params().name;
+    q["file"] = "probes/" + pr.params().name + ".csv";
+    q["window"] = pr.params().window_known ? json::array({pr.params().window_start, pr.params().window_end}) : json();
+    q["samples_in_window"] = w.samples;
+    q["mean_kg_per_s"] = w.mean;
+    q["std_kg_per_s"] = w.stddev;
+    // The samples are autocorrelated: the half-width comes from batch means, not std / sqrt(n).
+    const bool has_ci = std::isfinite(w.ci.ci95);
+    q["ci95_kg_per_s"] = has_ci ? json(w.ci.ci95) : json();
+    q["ci_method"] = has_ci ? w.ci.method() : "fewer than 2 samples in the window";
+    q["effective_samples"] = has_ci ? json(w.ci.effective_samples) : json();
+    q["ci_batch_lag1"] = has_ci ? json(w.ci.lag1) : json();  // above 0.1: batches too short, interval too narrow
+    q["total_mass_kg"] = pr.state().total_mass;
+    probes.push_back(q);
+  }
+  return probes;
+}
+
 constexpr const char* kSeriesHeader =
     "t,particles,kinetic_energy_J,pair_contacts,wall_contacts,requested,inserted,removed,failed,pending,rebuilds\n";
 }  // namespace
@@ -43,6 +68,7 @@ RunStatus Level::run() {
 
   RunStatus status = RunStatus::Completed;
   std::string reason;
+  bool output_failed = false;
   try {
     while (true) {
       if (end_time_ >= 0.0 && time() >= end_time_ - half) break;
@@ -69,9 +95,11 @@ RunStatus Level::run() {
     status = RunStatus::Failed;
     reason = e.what();
     log_->error("STOPPED: {}", reason);
-    if (!opt_.out_dir.empty()) {
+    if (!opt_.out_dir.empty()) try {
       write_checkpoint(opt_.out_dir / "checkpoint_failed.h5");
       log_->error("state at the stop written to {}", (opt_.out_dir / "checkpoint_failed.h5").string());
+    } catch (const OutputStop& w) {
+      log_->error("the state at the stop could not be written: {}", w.what());
     }
   } catch (const StopRequested& e) {
     status = RunStatus::Interrupted;
@@ -82,15 +110,39 @@ RunStatus Level::run() {
     status = RunStatus::Failed;
     reason = e.what();
     log_->error("STOPPED: {}", reason);
+  } catch (const OutputStop& e) {  // the last checkpoint stays
+    status = RunStatus::Failed;
+    reason = std::string("cannot write the run's output: ") + e.what();
+    output_failed = true;
   }
+  finish_run(status, reason, output_failed);
+  return status;
+}
+
+void Level::finish_run(RunStatus status, const std::string& reason, bool output_failed) {
   if (coupled_) coupling_bye(status, reason);
   if (status == RunStatus::Completed)
     for (auto& in : ins_) in.abandon_pending();
-
   progress(true);
-  write_outputs(true);
-  if (!opt_.out_dir.empty() && status != RunStatus::Failed) write_checkpoint(opt_.out_dir / "checkpoint.h5");
-  write_summary(to_string(status), reason);
+  try {
+    if (output_failed) {  // nothing more but the summary: every further file would fail the same way
+      log_->error("STOPPED: {}; earlier files and checkpoints are intact", reason);
+      log_->flush();
+    } else {
+      write_outputs(true);
+      if (!opt_.out_dir.empty() && status != RunStatus::Failed) write_checkpoint(opt_.out_dir / "checkpoint.h5");
+    }
+    write_summary(to_string(status), reason);
+  } catch (const OutputStop& e) {
+    log_->error("cannot write the run's output: {}", e.what());
+    status = RunStatus::Failed;
+  }
+  // The log file may be on the full disk too, and a quiet level has no console: stderr always tells.
+  if (status == RunStatus::Failed && comm_.rank() == 0 && (output_failed || !output_error_.empty()))
+    std::fprintf(stderr, "dem_level: level '%s' failed: %s%s\n", lvl_.name.c_str(), reason.c_str(),
+                 output_error_.empty() || reason.find(output_error_) != std::string::npos
+                     ? ""
+                     : ("; and " + output_error_).c_str());
   const auto b = mass_balance();
   log_->info("{}: t = {:.4f} s, {} steps, {} particles present, {} removed, {} failed to place", to_string(status),
              time(), step_, b.present, b.removed, b.failed);
@@ -103,12 +155,25 @@ RunStatus Level::run() {
       log_->warn("probe '{}': the batch means are still correlated (lag 1: {:.2f}), so the interval is likely too "
                  "narrow; a longer window gives room for longer batches", pr.params().name, w.ci.lag1);
   }
-  return status;
+}
+
+void Level::rank0_output(const std::function<void()>& write) const {
+  try {
+    write();
+  } catch (const std::exception& e) {
+    if (output_error_.empty()) output_error_ = e.what();
+  }
+}
+
+void Level::sync_output() const {
+  if (!comm_.any(!output_error_.empty())) return;
+  throw OutputStop(comm_.serial() ? output_error_ : comm_.bcast(output_error_, 0));
 }
 
 void Level::after_step() {
   const double t = time();
   const double half = 0.5 * dt_;
+  bool grid_output = false;
   {
     PhaseTimer measure(times_.measure);
     for (auto& pr : probes_)
@@ -122,13 +187,16 @@ void Level::after_step() {
       }
       if (t >= g.next_output - half) {
         const GridAverages a = g.grid.take_averages();
-        if (g.series) g.series->write(t, a.volume_fraction, a.mean_velocity, a.max_speed, a.stress6, a.count);
+        if (g.series)
+          rank0_output([&] { g.series->write(t, a.volume_fraction, a.mean_velocity, a.max_speed, a.stress6, a.count); });
+        grid_output = true;
         g.next_output += g.output_interval;
         ++g.outputs;
       }
     }
   }
   PhaseTimer output(times_.output);
+  if (grid_output) sync_output();
   const auto& o = cs_.output;
   if (o.stats_interval > 0.0 && t >= next_stats_ - half) {
     series_rows_.push_back(series_row());
@@ -168,7 +236,11 @@ void Level::write_snapshot() {
     w.put(p_.x[i]); w.put(p_.v[i]); w.put(p_.omega[i]); w.put(p_.radius[i]); w.put(p_.id[i]);
   }
   const auto all = comm_.gather0(buf);
-  if (!snaps_) return;
+  if (snaps_) rank0_output([&] { write_snapshot_file(all); });
+  sync_output();
+}
+
+void Level::write_snapshot_file(const std::vector<char>& all) {
   std::vector<Vec3> x, v, om;
   std::vector<double> r;
   std::vector<int64_t> id;
@@ -189,7 +261,11 @@ void Level::write_outputs(bool final) {
   // the same time); that row is not part of the checkpointed series.
   std::vector<std::string> rows = series_rows_;
   const std::string last = final ? series_row() : std::string();
-  if (comm_.rank() != 0) return;
+  if (comm_.rank() == 0) rank0_output([&] { write_series_files(rows, last, final); });
+  sync_output();
+}
+
+void Level::write_series_files(std::vector<std::string> rows, const std::string& last, bool final) const {
   if (final) {
     const auto stamp = [](const std::string& r) { return r.substr(0, r.find(',')); };
     if (!rows.empty() && stamp(rows.back()) == stamp(last)) rows.back() = last;
@@ -203,16 +279,21 @@ void Level::write_outputs(bool final) {
 
 void Level::write_summary(const std::string& status, const std::string& reason) const {
   if (opt_.out_dir.empty()) return;
-  using nlohmann::json;
   // Collective part first: every rank contributes, rank 0 writes.
   const auto b = mass_balance();
-  const double nr = static_cast<double>(comm_.size());
   double sums[12] = {times_.integrate, times_.neighbor, times_.force, times_.comm, times_.measure, times_.insert,
                      times_.output, static_cast<double>(nl_.pairs()), static_cast<double>(memory_bytes()),
                      static_cast<double>(p_.n_local()), times_.coupling, times_.coupling_wait};
   comm_.sum_in_place(sums, 12);
   const CouplingReport cr = coupling_report();
-  if (comm_.rank() != 0) return;
+  if (comm_.rank() == 0) rank0_output([&] { write_summary_file(status, reason, b, sums, cr); });
+  sync_output();
+}
+
+void Level::write_summary_file(const std::string& status, const std::string& reason, const MassBalance& b,
+                               const double* sums, const CouplingReport& cr) const {
+  using nlohmann::json;
+  const double nr = static_cast<double>(comm_.size());
   const double wall = wall_seconds_before_ + (wall_seconds() - wall_start_);
   json j;
   j["status"] = status;
@@ -255,26 +336,7 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
                       {"largest_insert_wall_overlap_of_diameter", cr.worst_insert_wall_overlap},
                       {"inserted_outside_walls", cr.inserted_outside_walls}};
   j["levels"] = json::array({lv});
-  json probes = json::array();
-  for (const auto& pr : probes_) {
-    const auto w = pr.window_stats();
-    json q;
-    q["name"] = pr.params().name;
-    q["file"] = "probes/" + pr.params().name + ".csv";
-    q["window"] = pr.params().window_known ? json::array({pr.params().window_start, pr.params().window_end}) : json();
-    q["samples_in_window"] = w.samples;
-    q["mean_kg_per_s"] = w.mean;
-    q["std_kg_per_s"] = w.stddev;
-    // The samples are autocorrelated: the half-width comes from batch means, not std / sqrt(n).
-    const bool has_ci = std::isfinite(w.ci.ci95);
-    q["ci95_kg_per_s"] = has_ci ? json(w.ci.ci95) : json();
-    q["ci_method"] = has_ci ? w.ci.method() : "fewer than 2 samples in the window";
-    q["effective_samples"] = has_ci ? json(w.ci.effective_samples) : json();
-    q["ci_batch_lag1"] = has_ci ? json(w.ci.lag1) : json();  // above 0.1: batches too short, interval too narrow
-    q["total_mass_kg"] = pr.state().total_mass;
-    probes.push_back(q);
-  }
-  j["probes"] = probes;
+  j["probes"] = probe_entries(probes_);
   j["mass_balance"] = {{"requested", b.requested},       {"inserted", b.inserted},
                        {"present", b.present},           {"removed", b.removed},
                        {"failed_to_place", b.failed},    {"pending", b.pending},

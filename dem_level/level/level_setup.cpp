@@ -143,6 +143,7 @@ void Level::setup() {
     if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
   if (cs_.initial) load_initial_state(explicit_kinds, placed, fills_scene && opt_.restart.empty());
+  case_placed_ = explicit_count_;  // before a checkpoint or the coupler adds to the count
 
   // Stability guard, over every kind of particle this level will hold.
   std::vector<ParticleKind> kinds;
@@ -159,7 +160,7 @@ void Level::setup() {
     kinds.push_back(k);
     r_max = std::max(r_max, k.r_max);
   }
-  for (const auto& k : explicit_kinds) {
+  for (const auto& k : merge_kinds(explicit_kinds)) {  // one kind per particle would make the guard O(N^2)
     kinds.push_back(k);
     r_max = std::max(r_max, k.r_max);
   }

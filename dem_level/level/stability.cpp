@@ -37,6 +37,21 @@ InitialOverlap initial_overlaps(const std::vector<PlacedParticle>& placed, const
   return ov;
 }
 
+std::vector<ParticleKind> merge_kinds(const std::vector<ParticleKind>& kinds) {
+  std::vector<ParticleKind> out;
+  for (const auto& k : kinds) {
+    auto it = std::find_if(out.begin(), out.end(), [&](const ParticleKind& o) { return o.material == k.material; });
+    if (it == out.end()) {
+      out.push_back(k);
+      continue;
+    }
+    it->r_min = std::min(it->r_min, k.r_min);
+    it->r_max = std::max(it->r_max, k.r_max);
+    it->speed = std::max(it->speed, k.speed);
+  }
+  return out;
+}
+
 StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelSpec& lvl, const MaterialTable& mt,
                                 const std::vector<ParticleKind>& kinds, const std::vector<int>& wall_materials,
                                 double gravity_height, const InitialOverlap& overlaps) {
