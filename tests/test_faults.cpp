@@ -222,16 +222,22 @@ TEST(RunFolderLock, AFolderHeldByALiveLauncherIsNeitherResumedNorReused) {
 
 // ---- dem_level honours SIGTERM everywhere (fault 3) ----
 
-// One batch asks for 50 million particles (no rate): the cone holds about 17,000, so the rest take
-// 200 attempts each, hours of SSI. SIGTERM inside it ends the level within 2 s, with the batch dropped.
+// One batch asks for 600,000 particles (no rate) in a 0.13 m^3 cylinder around the funnel: a
+// legitimate batch (16 % of the volume; an impossible one is refused before step 1) that takes
+// many seconds of SSI. SIGTERM inside it ends the level within 2 s, with the batch dropped.
 TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
   const fs::path dir = temp("bigbatch");
   const fs::path cfile = dir.string() + ".toml";
   fs::remove_all(dir);
   std::string text = slurp(kSrc + "/cases/quickstart/case.toml");
-  const std::string from = "count = 2500\nrate = 20000.0\n";
-  ASSERT_NE(text.find(from), std::string::npos);
-  text.replace(text.find(from), from.size(), "count = 50000000\n");
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"min = [-0.05, -0.05, -0.04]\nmax = [0.05, 0.05, 0.15]", "min = [-0.3, -0.3, -0.04]\nmax = [0.3, 0.3, 0.5]"},
+           {"radius = 0.037, zmin = 0.002, zmax = 0.135", "radius = 0.29, zmin = 0.002, zmax = 0.49"},
+           {"count = 2500\nrate = 20000.0\n", "count = 600000\n"},
+           {"follow_gap = 0.005\nfollow_height = 0.02\n", ""}}) {
+    ASSERT_NE(text.find(from), std::string::npos) << from;
+    text.replace(text.find(from), from.size(), to);
+  }
   std::ofstream(cfile) << text;
   const pid_t pid = start({kBin + "/dem_level", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
   KillOnExit guard{pid};
