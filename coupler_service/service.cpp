@@ -74,10 +74,35 @@ void Service::refuse(const std::string& peer, const std::string& why) {
   if (peer.empty()) return;
   bus::Envelope env;
   env.mutable_refused()->set_reason(why);
+  deliver(env, peer);
+}
+
+bool Service::deliver(const bus::Envelope& env, const std::string& peer) {
   try {
     ch_.send(env, peer);
   } catch (const std::exception& e) {
     log_->warn("could not tell '{}': {}", peer, e.what());
+    return false;
+  }
+  for (auto& p : peers_)
+    if (p.identity == peer) p.last_sent = now();
+  return true;
+}
+
+std::string Service::awaited() const {
+  if (!started_) return names([](const Peer& p) { return !p.registered; });
+  return names([](const Peer& p) { return !p.finished && !p.has_stats; });
+}
+
+void Service::send_heartbeats(double t) {
+  std::string waiting;
+  for (auto& p : peers_) {
+    const bool waits = p.registered && !p.finished && (!started_ || p.has_stats);
+    if (!waits || t - p.last_sent < coupler_.config().heartbeat) continue;
+    if (waiting.empty()) waiting = awaited();
+    bus::Envelope env;
+    env.mutable_heartbeat()->set_waiting_for(waiting);
+    deliver(env, p.identity);
   }
 }
 
@@ -87,13 +112,8 @@ void Service::fail(const std::string& why) {
   bus::Envelope env;
   env.mutable_bye()->set_reason(why);
   env.mutable_bye()->set_failed(true);
-  for (const auto& p : peers_) {
-    if (!p.registered || p.finished) continue;
-    try {
-      ch_.send(env, p.identity);
-    } catch (const std::exception&) {  // already gone
-    }
-  }
+  for (const auto& p : peers_)
+    if (p.registered && !p.finished) deliver(env, p.identity);
 }
 
 void Service::on_register(const bus::Incoming& in) {
@@ -119,7 +139,7 @@ void Service::on_register(const bus::Incoming& in) {
   p.last_seen = now();
   bus::Envelope env;
   *env.mutable_welcome() = coupler_.welcome(static_cast<size_t>(l), k_);
-  ch_.send(env, p.identity);
+  deliver(env, p.identity);
   log_->info("level '{}' registered: alpha {}, dt {} s, {} rank(s), binary {}", lc.name, r.alpha(), r.dt(),
              r.ranks(), r.binary());
 }
@@ -165,11 +185,7 @@ void Service::send_commands(std::vector<bus::IntervalCommands> cmds) {
     bus::Envelope env;
     if (last && cmds[l].interval() > 0) cmds[l].set_stop(true);
     *env.mutable_commands() = std::move(cmds[l]);
-    try {
-      ch_.send(env, peers_[l].identity);
-    } catch (const std::exception& e) {
-      log_->warn("{}", e.what());
-    }
+    deliver(env, peers_[l].identity);
   }
 }
 
@@ -179,6 +195,7 @@ void Service::write_final(const std::string& status) const {
   j["status"] = status;
   j["checkpoints"] = checkpoints_;
   j["error"] = error_;
+  j["silent_level"] = silent_;
   j["intervals"] = k_;
   j["interval_s"] = coupler_.config().interval;
   j["coupler_busy_seconds"] = busy_;
@@ -272,6 +289,7 @@ int Service::loop() {
       return 2;
     }
     const double t = now();
+    send_heartbeats(t);
     if (!started_) {
       // A stop asked for now still waits for the levels: the first checkpoint boundary stops them.
       if (all(&Peer::registered)) {
@@ -329,8 +347,10 @@ int Service::loop() {
       if (p.finished) continue;
       // A level that delivered its statistics waits on the coupler, it is not silent.
       if (!p.has_stats && t - p.last_seen > cfg.timeout) {
-        fail(fmt::format("level '{}' silent for {:.1f} s (timeout {} s) at interval {}", p.identity, t - p.last_seen,
-                         cfg.timeout, k_));
+        silent_ = p.identity;
+        fail(fmt::format("level '{}' went silent: no message for {:.1f} s (timeout {} s) at interval {}; it is hung, "
+                         "stopped (SIGSTOP) or starved of CPU (raise [coupling] timeout if it is only slow)",
+                         p.identity, t - p.last_seen, cfg.timeout, k_));
         return 2;
       }
     }

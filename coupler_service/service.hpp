@@ -4,7 +4,9 @@
 // (DESIGN.md section 3-4): send commands for interval k, wait for every
 // level's statistics of k, compute commands for k + 1. Levels are watched by
 // heartbeat: one silent past the timeout is named, every other level is told
-// to stop (Bye, failed) and run() returns non-zero. A malformed, oversized or
+// to stop (Bye, failed) and run() returns non-zero. The coupler sends
+// heartbeats to the levels waiting on it, so they blame the silent level, not
+// the coupler. A malformed, oversized or
 // wrong-version message is logged and answered with Refused; it never stops
 // the coupler.
 //
@@ -68,6 +70,7 @@ class Service {
     std::string identity;  // ZeroMQ routing id (the level name)
     bool registered = false, finished = false, has_stats = false;
     double last_seen = 0.0;
+    double last_sent = -1.0;  // wall time of the coupler's last message to it (for its heartbeats)
     bus::IntervalStats stats;
     double psteps = 0.0, pwall = 0.0;  // particle-steps and wall seconds since the last progress file
     double rate = 0.0;                 // particle-steps per wall second, as last reported
@@ -76,6 +79,13 @@ class Service {
   void handle(const bus::Incoming& in);
   void on_register(const bus::Incoming& in);
   void refuse(const std::string& peer, const std::string& why);
+  // Every message to a peer goes through here; false when it could not be sent (logged).
+  bool deliver(const bus::Envelope& env, const std::string& peer);
+  // A heartbeat every heartbeat seconds to each level waiting on the coupler: without one, a level
+  // waiting on a hung peer would time out on the coupler and blame it (issue 13).
+  void send_heartbeats(double t);
+  // The levels whose statistics (before the start: registrations) the coupler waits for.
+  std::string awaited() const;
   void fail(const std::string& why);
   void send_commands(std::vector<bus::IntervalCommands> cmds);
   void write_logs();
@@ -107,6 +117,7 @@ class Service {
   static constexpr double kStopWaitSeconds = 10.0;  // a stop waits this long for a periodic boundary
   double progress_wall_ = -1.0, start_wall_ = 0.0, start_sim_ = 0.0;  // for the progress file and its ETA
   std::string error_;
+  std::string silent_;  // the level that went silent (coupling/summary.json silent_level), if one did
   std::vector<std::ofstream> csv_;
 };
 
