@@ -70,7 +70,11 @@ bool Service::all(bool Peer::*flag) const {
 
 void Service::refuse(const std::string& peer, const std::string& why) {
   ++refused_;
-  log_->warn("refused a message from '{}': {}", peer, why);
+  const uint64_t n = ++refusals_[peer];
+  if (n <= kLoggedRefusals) log_->warn("refused a message from {}: {}", bus::peer_name(peer), why);
+  if (n == kLoggedRefusals)
+    log_->warn("further refusals of {} are counted, not logged (coupling/summary.json: refused_messages)",
+               bus::peer_name(peer));
   if (peer.empty()) return;
   bus::Envelope env;
   env.mutable_refused()->set_reason(why);
@@ -79,14 +83,30 @@ void Service::refuse(const std::string& peer, const std::string& why) {
 
 bool Service::deliver(const bus::Envelope& env, const std::string& peer) {
   try {
-    ch_.send(env, peer);
+    if (!ch_.send(env, peer)) {
+      stalled(peer, env);
+      return false;
+    }
   } catch (const std::exception& e) {
-    log_->warn("could not tell '{}': {}", peer, e.what());
+    log_->warn("could not tell {}: {}", bus::peer_name(peer), e.what());
     return false;
   }
   for (auto& p : peers_)
     if (p.identity == peer) p.last_sent = now();
   return true;
+}
+
+void Service::stalled(const std::string& peer, const bus::Envelope& env) {
+  const int l = coupler_.level_index(peer);
+  if (l >= 0 && peers_[static_cast<size_t>(l)].registered) {
+    log_->warn("level '{}' does not read the coupler's messages ({} queued): a {} was not sent", peer,
+               bus::kRouterSendHwm, bus::body_name(env));
+    return;
+  }
+  dropped_.insert(peer);
+  log_->warn("dropped peer {}: it sends but does not read the coupler's replies ({} queued); its messages are "
+             "ignored from now on (a local process that is not a level of this run?)",
+             bus::peer_name(peer), bus::kRouterSendHwm);
 }
 
 std::string Service::awaited() const {
@@ -145,12 +165,16 @@ void Service::on_register(const bus::Incoming& in) {
 }
 
 void Service::handle(const bus::Incoming& in) {
+  if (dropped_.count(in.peer)) {
+    ++ignored_;
+    return;
+  }
   if (!in.ok()) return refuse(in.peer, in.error);
   const bus::Envelope& env = in.env;
   if (env.has_register_level()) return on_register(in);
   const int l = coupler_.level_index(in.peer);
   if (l < 0 || !peers_[static_cast<size_t>(l)].registered)
-    return refuse(in.peer, fmt::format("'{}' sent {} before registering", in.peer, bus::body_name(env)));
+    return refuse(in.peer, fmt::format("{} sent {} before registering", bus::peer_name(in.peer), bus::body_name(env)));
   Peer& p = peers_[static_cast<size_t>(l)];
   p.last_seen = now();
   if (env.has_heartbeat()) return;
@@ -168,7 +192,8 @@ void Service::handle(const bus::Incoming& in) {
     p.has_stats = true;
     return;
   }
-  refuse(in.peer, fmt::format("'{}' sent {}, which the coupler does not accept", in.peer, bus::body_name(env)));
+  refuse(in.peer, fmt::format("{} sent {}, which the coupler does not accept", bus::peer_name(in.peer),
+                              bus::body_name(env)));
 }
 
 void Service::send_commands(std::vector<bus::IntervalCommands> cmds) {
@@ -200,6 +225,9 @@ void Service::write_final(const std::string& status) const {
   j["interval_s"] = coupler_.config().interval;
   j["coupler_busy_seconds"] = busy_;
   j["refused_messages"] = refused_;
+  j["dropped_peers"] = nlohmann::json::array();
+  for (const auto& p : dropped_) j["dropped_peers"].push_back(bus::peer_name(p));
+  j["ignored_messages"] = ignored_;
   j["regions"] = nlohmann::json::array();
   for (size_t r = 0; r < coupler_.config().regions.size(); ++r) {
     const auto& geo = coupler_.geometry(r);

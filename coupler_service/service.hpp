@@ -8,7 +8,8 @@
 // heartbeats to the levels waiting on it, so they blame the silent level, not
 // the coupler. A malformed, oversized or
 // wrong-version message is logged and answered with Refused; it never stops
-// the coupler.
+// the coupler. Sends never block the loop: a peer that is not a level and does
+// not read its replies is dropped (logged once, its id in hex) and ignored.
 //
 // Consistent checkpoints (service_checkpoint.cpp): the commands of interval k
 // ask every level to write its checkpoint at the end of k into
@@ -21,7 +22,9 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -81,6 +84,9 @@ class Service {
   void refuse(const std::string& peer, const std::string& why);
   // Every message to a peer goes through here; false when it could not be sent (logged).
   bool deliver(const bus::Envelope& env, const std::string& peer);
+  // `peer`'s queue is full: a level is only warned about (its silence is the timeout's to report);
+  // anyone else is dropped.
+  void stalled(const std::string& peer, const bus::Envelope& env);
   // A heartbeat every heartbeat seconds to each level waiting on the coupler: without one, a level
   // waiting on a hung peer would time out on the coupler and blame it (issue 13).
   void send_heartbeats(double t);
@@ -107,6 +113,10 @@ class Service {
   std::vector<Peer> peers_;
   uint64_t k_ = 0;          // interval the levels are running
   uint64_t refused_ = 0;
+  std::map<std::string, uint64_t> refusals_;  // per peer, to log only the first kLoggedRefusals
+  static constexpr uint64_t kLoggedRefusals = 10;
+  std::set<std::string> dropped_;             // peers whose messages are ignored (they do not read)
+  uint64_t ignored_ = 0;                      // messages of dropped peers
   double busy_ = 0.0;       // wall seconds spent computing commands and logs
   bool started_ = false;
   bool checkpoint_due_ = false;  // the commands of k_ asked for a checkpoint

@@ -3,13 +3,16 @@
 // processes of a run end with their launcher, even when it is killed outright,
 // and a run folder takes one live launcher at a time; dem_level honours SIGTERM
 // inside a long insertion batch and while it waits to register with the coupler;
-// a hung (SIGSTOP) level is named, not the coupler.
+// a hung (SIGSTOP) level is named, not the coupler; a local peer flooding the
+// bus without reading is dropped and the run goes on.
 #include <gtest/gtest.h>
 
 #include <sys/file.h>
 #include <sys/syscall.h>
 
 #include <map>
+
+#include <zmq.hpp>
 
 #include "launch_support.hpp"
 #include "run_checks.hpp"
@@ -358,4 +361,43 @@ TEST(HungLevel, AStoppedFineLevelIsNamedWithinTheTimeoutAndNoProcessIsLeft) {
   expect_no_process_left(dir);
   fs::remove_all(dir);
   for (const auto& f : {dir.string() + ".out", cfile.string()}) fs::remove(f);
+}
+
+// ---- A local peer cannot stall the bus (fault 5) ----
+
+// A DEALER on the run's bus.ipc sends 5000 garbage frames and never reads the coupler's refusals. The
+// coupler drops it once they back up (logged once, its binary id in hex) and the run ends with the per-face
+// totals of an undisturbed run (runs are deterministic).
+TEST(BusFlood, APeerThatNeverReadsIsDroppedAndTheRunIsUnaffected) {
+  const fs::path ref = temp("flood_ref"), dir = temp("flood");
+  for (const auto& d : {ref, dir}) fs::remove_all(d);
+  const std::string quickstart = kSrc + "/cases/quickstart/mlcg.toml";
+  ASSERT_EQ(run(kBin + "/mlcg run " + quickstart + " --out " + ref.string() + " --quiet > " + ref.string() +
+                ".out 2>&1"),
+            0) << slurp(ref.string() + ".out");
+  const pid_t pid = start_mlcg({"run", quickstart, "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  KillOnExit guard{pid};
+  ASSERT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");  // the levels are coupled
+  const std::string id("\x00\xff" "flood", 7);  // bytes a log must not print raw
+  zmq::context_t ctx;
+  zmq::socket_t s(ctx, zmq::socket_type::dealer);
+  s.set(zmq::sockopt::routing_id, id);
+  s.set(zmq::sockopt::sndhwm, 0);  // no limit here: the sends below never block the test
+  s.set(zmq::sockopt::linger, 0);
+  s.connect("ipc://" + (dir / "bus.ipc").string());
+  for (int i = 0; i < 5000; ++i) s.send(zmq::buffer("garbage " + std::to_string(i)), zmq::send_flags::none);
+  // The socket stays open, unread, until the run ends.
+  EXPECT_EQ(wait_exit(pid), 0) << slurp(dir.string() + ".out");
+  guard.pid = -1;
+  EXPECT_EQ(slurp(dir / "coupling" / "faces_region0.csv"), slurp(ref / "coupling" / "faces_region0.csv"));
+  const std::string log = slurp(dir / "coupler.log");
+  const std::string dropped = "dropped peer 0x00ff666c6f6f64";
+  const size_t at = log.find(dropped);
+  EXPECT_NE(at, std::string::npos) << log.substr(0, 4000);
+  EXPECT_EQ(log.find(dropped, at + 1), std::string::npos) << "the drop must be logged once";
+  EXPECT_EQ(log.find(id.substr(1)), std::string::npos) << "the peer's id is logged as raw bytes";
+  for (const auto& d : {ref, dir}) {
+    fs::remove_all(d);
+    fs::remove(d.string() + ".out");
+  }
 }
