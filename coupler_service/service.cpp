@@ -299,6 +299,36 @@ int Service::run() {
   return code;
 }
 
+bool Service::fail_if_stuck(double t) {
+  const auto& cfg = coupler_.config();
+  // Levels share the end time: if one finished without statistics of k while
+  // another delivered them, interval k can never complete.
+  bool stuck = true, waiting = false, gone = false;
+  for (const auto& p : peers_) {
+    stuck = stuck && (p.finished || p.has_stats);
+    waiting = waiting || (!p.finished && p.has_stats);
+    gone = gone || (p.finished && !p.has_stats);
+  }
+  if (stuck && waiting && gone) {
+    fail(fmt::format("level(s) {} finished before interval {} while {} continue (levels share the end time)",
+                     names([](const Peer& p) { return p.finished && !p.has_stats; }), k_,
+                     names([](const Peer& p) { return !p.finished; })));
+    return true;
+  }
+  for (const auto& p : peers_) {
+    if (p.finished) continue;
+    // A level that delivered its statistics waits on the coupler, it is not silent.
+    if (!p.has_stats && t - p.last_seen > cfg.timeout) {
+      silent_ = p.identity;
+      fail(fmt::format("level '{}' went silent: no message for {:.1f} s (timeout {} s) at interval {}; it is hung, "
+                       "stopped (SIGSTOP) or starved of CPU (raise [coupling] timeout if it is only slow)",
+                       p.identity, t - p.last_seen, cfg.timeout, k_));
+      return true;
+    }
+  }
+  return false;
+}
+
 int Service::loop() {
   const auto& cfg = coupler_.config();
   const double t0 = now();
@@ -357,31 +387,7 @@ int Service::loop() {
       for (auto& f : csv_) f.flush();
       return stopping_ ? kInterruptedCode : 0;
     }
-    // Levels share the end time: if one finished without statistics of k while
-    // another delivered them, interval k can never complete.
-    bool stuck = true, waiting = false, gone = false;
-    for (const auto& p : peers_) {
-      stuck = stuck && (p.finished || p.has_stats);
-      waiting = waiting || (!p.finished && p.has_stats);
-      gone = gone || (p.finished && !p.has_stats);
-    }
-    if (stuck && waiting && gone) {
-      fail(fmt::format("level(s) {} finished before interval {} while {} continue (levels share the end time)",
-                       names([](const Peer& p) { return p.finished && !p.has_stats; }), k_,
-                       names([](const Peer& p) { return !p.finished; })));
-      return 2;
-    }
-    for (const auto& p : peers_) {
-      if (p.finished) continue;
-      // A level that delivered its statistics waits on the coupler, it is not silent.
-      if (!p.has_stats && t - p.last_seen > cfg.timeout) {
-        silent_ = p.identity;
-        fail(fmt::format("level '{}' went silent: no message for {:.1f} s (timeout {} s) at interval {}; it is hung, "
-                         "stopped (SIGSTOP) or starved of CPU (raise [coupling] timeout if it is only slow)",
-                         p.identity, t - p.last_seen, cfg.timeout, k_));
-        return 2;
-      }
-    }
+    if (fail_if_stuck(t)) return 2;
   }
 }
 

@@ -79,6 +79,8 @@ class Service {
     double rate = 0.0;                 // particle-steps per wall second, as last reported
   };
   int loop();
+  // Fails the run (true) when interval k_ can never complete: a level finished early or went silent.
+  bool fail_if_stuck(double t);
   void handle(const bus::Incoming& in);
   void on_register(const bus::Incoming& in);
   void refuse(const std::string& peer, const std::string& why);
