@@ -70,14 +70,59 @@ bool Service::all(bool Peer::*flag) const {
 
 void Service::refuse(const std::string& peer, const std::string& why) {
   ++refused_;
-  log_->warn("refused a message from '{}': {}", peer, why);
+  const uint64_t n = ++refusals_[peer];
+  if (n <= kLoggedRefusals) log_->warn("refused a message from {}: {}", bus::peer_name(peer), why);
+  if (n == kLoggedRefusals)
+    log_->warn("further refusals of {} are counted, not logged (coupling/summary.json: refused_messages)",
+               bus::peer_name(peer));
   if (peer.empty()) return;
   bus::Envelope env;
   env.mutable_refused()->set_reason(why);
+  deliver(env, peer);
+}
+
+bool Service::deliver(const bus::Envelope& env, const std::string& peer) {
   try {
-    ch_.send(env, peer);
+    if (!ch_.send(env, peer)) {
+      stalled(peer, env);
+      return false;
+    }
   } catch (const std::exception& e) {
-    log_->warn("could not tell '{}': {}", peer, e.what());
+    log_->warn("could not tell {}: {}", bus::peer_name(peer), e.what());
+    return false;
+  }
+  for (auto& p : peers_)
+    if (p.identity == peer) p.last_sent = now();
+  return true;
+}
+
+void Service::stalled(const std::string& peer, const bus::Envelope& env) {
+  const int l = coupler_.level_index(peer);
+  if (l >= 0 && peers_[static_cast<size_t>(l)].registered) {
+    log_->warn("level '{}' does not read the coupler's messages ({} queued): a {} was not sent", peer,
+               bus::kRouterSendHwm, bus::body_name(env));
+    return;
+  }
+  dropped_.insert(peer);
+  log_->warn("dropped peer {}: it sends but does not read the coupler's replies ({} queued); its messages are "
+             "ignored from now on (a local process that is not a level of this run?)",
+             bus::peer_name(peer), bus::kRouterSendHwm);
+}
+
+std::string Service::awaited() const {
+  if (!started_) return names([](const Peer& p) { return !p.registered; });
+  return names([](const Peer& p) { return !p.finished && !p.has_stats; });
+}
+
+void Service::send_heartbeats(double t) {
+  std::string waiting;
+  for (auto& p : peers_) {
+    const bool waits = p.registered && !p.finished && (!started_ || p.has_stats);
+    if (!waits || t - p.last_sent < coupler_.config().heartbeat) continue;
+    if (waiting.empty()) waiting = awaited();
+    bus::Envelope env;
+    env.mutable_heartbeat()->set_waiting_for(waiting);
+    deliver(env, p.identity);
   }
 }
 
@@ -87,13 +132,8 @@ void Service::fail(const std::string& why) {
   bus::Envelope env;
   env.mutable_bye()->set_reason(why);
   env.mutable_bye()->set_failed(true);
-  for (const auto& p : peers_) {
-    if (!p.registered || p.finished) continue;
-    try {
-      ch_.send(env, p.identity);
-    } catch (const std::exception&) {  // already gone
-    }
-  }
+  for (const auto& p : peers_)
+    if (p.registered && !p.finished) deliver(env, p.identity);
 }
 
 void Service::on_register(const bus::Incoming& in) {
@@ -119,18 +159,22 @@ void Service::on_register(const bus::Incoming& in) {
   p.last_seen = now();
   bus::Envelope env;
   *env.mutable_welcome() = coupler_.welcome(static_cast<size_t>(l), k_);
-  ch_.send(env, p.identity);
+  deliver(env, p.identity);
   log_->info("level '{}' registered: alpha {}, dt {} s, {} rank(s), binary {}", lc.name, r.alpha(), r.dt(),
              r.ranks(), r.binary());
 }
 
 void Service::handle(const bus::Incoming& in) {
+  if (dropped_.count(in.peer)) {
+    ++ignored_;
+    return;
+  }
   if (!in.ok()) return refuse(in.peer, in.error);
   const bus::Envelope& env = in.env;
   if (env.has_register_level()) return on_register(in);
   const int l = coupler_.level_index(in.peer);
   if (l < 0 || !peers_[static_cast<size_t>(l)].registered)
-    return refuse(in.peer, fmt::format("'{}' sent {} before registering", in.peer, bus::body_name(env)));
+    return refuse(in.peer, fmt::format("{} sent {} before registering", bus::peer_name(in.peer), bus::body_name(env)));
   Peer& p = peers_[static_cast<size_t>(l)];
   p.last_seen = now();
   if (env.has_heartbeat()) return;
@@ -148,7 +192,8 @@ void Service::handle(const bus::Incoming& in) {
     p.has_stats = true;
     return;
   }
-  refuse(in.peer, fmt::format("'{}' sent {}, which the coupler does not accept", in.peer, bus::body_name(env)));
+  refuse(in.peer, fmt::format("{} sent {}, which the coupler does not accept", bus::peer_name(in.peer),
+                              bus::body_name(env)));
 }
 
 void Service::send_commands(std::vector<bus::IntervalCommands> cmds) {
@@ -165,11 +210,7 @@ void Service::send_commands(std::vector<bus::IntervalCommands> cmds) {
     bus::Envelope env;
     if (last && cmds[l].interval() > 0) cmds[l].set_stop(true);
     *env.mutable_commands() = std::move(cmds[l]);
-    try {
-      ch_.send(env, peers_[l].identity);
-    } catch (const std::exception& e) {
-      log_->warn("{}", e.what());
-    }
+    deliver(env, peers_[l].identity);
   }
 }
 
@@ -179,10 +220,14 @@ void Service::write_final(const std::string& status) const {
   j["status"] = status;
   j["checkpoints"] = checkpoints_;
   j["error"] = error_;
+  j["silent_level"] = silent_;
   j["intervals"] = k_;
   j["interval_s"] = coupler_.config().interval;
   j["coupler_busy_seconds"] = busy_;
   j["refused_messages"] = refused_;
+  j["dropped_peers"] = nlohmann::json::array();
+  for (const auto& p : dropped_) j["dropped_peers"].push_back(bus::peer_name(p));
+  j["ignored_messages"] = ignored_;
   j["regions"] = nlohmann::json::array();
   for (size_t r = 0; r < coupler_.config().regions.size(); ++r) {
     const auto& geo = coupler_.geometry(r);
@@ -254,6 +299,36 @@ int Service::run() {
   return code;
 }
 
+bool Service::fail_if_stuck(double t) {
+  const auto& cfg = coupler_.config();
+  // Levels share the end time: if one finished without statistics of k while
+  // another delivered them, interval k can never complete.
+  bool stuck = true, waiting = false, gone = false;
+  for (const auto& p : peers_) {
+    stuck = stuck && (p.finished || p.has_stats);
+    waiting = waiting || (!p.finished && p.has_stats);
+    gone = gone || (p.finished && !p.has_stats);
+  }
+  if (stuck && waiting && gone) {
+    fail(fmt::format("level(s) {} finished before interval {} while {} continue (levels share the end time)",
+                     names([](const Peer& p) { return p.finished && !p.has_stats; }), k_,
+                     names([](const Peer& p) { return !p.finished; })));
+    return true;
+  }
+  for (const auto& p : peers_) {
+    if (p.finished) continue;
+    // A level that delivered its statistics waits on the coupler, it is not silent.
+    if (!p.has_stats && t - p.last_seen > cfg.timeout) {
+      silent_ = p.identity;
+      fail(fmt::format("level '{}' went silent: no message for {:.1f} s (timeout {} s) at interval {}; it is hung, "
+                       "stopped (SIGSTOP) or starved of CPU (raise [coupling] timeout if it is only slow)",
+                       p.identity, t - p.last_seen, cfg.timeout, k_));
+      return true;
+    }
+  }
+  return false;
+}
+
 int Service::loop() {
   const auto& cfg = coupler_.config();
   const double t0 = now();
@@ -272,6 +347,7 @@ int Service::loop() {
       return 2;
     }
     const double t = now();
+    send_heartbeats(t);
     if (!started_) {
       // A stop asked for now still waits for the levels: the first checkpoint boundary stops them.
       if (all(&Peer::registered)) {
@@ -311,29 +387,7 @@ int Service::loop() {
       for (auto& f : csv_) f.flush();
       return stopping_ ? kInterruptedCode : 0;
     }
-    // Levels share the end time: if one finished without statistics of k while
-    // another delivered them, interval k can never complete.
-    bool stuck = true, waiting = false, gone = false;
-    for (const auto& p : peers_) {
-      stuck = stuck && (p.finished || p.has_stats);
-      waiting = waiting || (!p.finished && p.has_stats);
-      gone = gone || (p.finished && !p.has_stats);
-    }
-    if (stuck && waiting && gone) {
-      fail(fmt::format("level(s) {} finished before interval {} while {} continue (levels share the end time)",
-                       names([](const Peer& p) { return p.finished && !p.has_stats; }), k_,
-                       names([](const Peer& p) { return !p.finished; })));
-      return 2;
-    }
-    for (const auto& p : peers_) {
-      if (p.finished) continue;
-      // A level that delivered its statistics waits on the coupler, it is not silent.
-      if (!p.has_stats && t - p.last_seen > cfg.timeout) {
-        fail(fmt::format("level '{}' silent for {:.1f} s (timeout {} s) at interval {}", p.identity, t - p.last_seen,
-                         cfg.timeout, k_));
-        return 2;
-      }
-    }
+    if (fail_if_stuck(t)) return 2;
   }
 }
 

@@ -4,9 +4,12 @@
 // (DESIGN.md section 3-4): send commands for interval k, wait for every
 // level's statistics of k, compute commands for k + 1. Levels are watched by
 // heartbeat: one silent past the timeout is named, every other level is told
-// to stop (Bye, failed) and run() returns non-zero. A malformed, oversized or
+// to stop (Bye, failed) and run() returns non-zero. The coupler sends
+// heartbeats to the levels waiting on it, so they blame the silent level, not
+// the coupler. A malformed, oversized or
 // wrong-version message is logged and answered with Refused; it never stops
-// the coupler.
+// the coupler. Sends never block the loop: a peer that is not a level and does
+// not read its replies is dropped (logged once, its id in hex) and ignored.
 //
 // Consistent checkpoints (service_checkpoint.cpp): the commands of interval k
 // ask every level to write its checkpoint at the end of k into
@@ -19,7 +22,9 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -68,14 +73,27 @@ class Service {
     std::string identity;  // ZeroMQ routing id (the level name)
     bool registered = false, finished = false, has_stats = false;
     double last_seen = 0.0;
+    double last_sent = -1.0;  // wall time of the coupler's last message to it (for its heartbeats)
     bus::IntervalStats stats;
     double psteps = 0.0, pwall = 0.0;  // particle-steps and wall seconds since the last progress file
     double rate = 0.0;                 // particle-steps per wall second, as last reported
   };
   int loop();
+  // Fails the run (true) when interval k_ can never complete: a level finished early or went silent.
+  bool fail_if_stuck(double t);
   void handle(const bus::Incoming& in);
   void on_register(const bus::Incoming& in);
   void refuse(const std::string& peer, const std::string& why);
+  // Every message to a peer goes through here; false when it could not be sent (logged).
+  bool deliver(const bus::Envelope& env, const std::string& peer);
+  // `peer`'s queue is full: a level is only warned about (its silence is the timeout's to report);
+  // anyone else is dropped.
+  void stalled(const std::string& peer, const bus::Envelope& env);
+  // A heartbeat every heartbeat seconds to each level waiting on the coupler: without one, a level
+  // waiting on a hung peer would time out on the coupler and blame it (issue 13).
+  void send_heartbeats(double t);
+  // The levels whose statistics (before the start: registrations) the coupler waits for.
+  std::string awaited() const;
   void fail(const std::string& why);
   void send_commands(std::vector<bus::IntervalCommands> cmds);
   void write_logs();
@@ -97,6 +115,10 @@ class Service {
   std::vector<Peer> peers_;
   uint64_t k_ = 0;          // interval the levels are running
   uint64_t refused_ = 0;
+  std::map<std::string, uint64_t> refusals_;  // per peer, to log only the first kLoggedRefusals
+  static constexpr uint64_t kLoggedRefusals = 10;
+  std::set<std::string> dropped_;             // peers whose messages are ignored (they do not read)
+  uint64_t ignored_ = 0;                      // messages of dropped peers
   double busy_ = 0.0;       // wall seconds spent computing commands and logs
   bool started_ = false;
   bool checkpoint_due_ = false;  // the commands of k_ asked for a checkpoint
@@ -107,6 +129,7 @@ class Service {
   static constexpr double kStopWaitSeconds = 10.0;  // a stop waits this long for a periodic boundary
   double progress_wall_ = -1.0, start_wall_ = 0.0, start_sim_ = 0.0;  // for the progress file and its ETA
   std::string error_;
+  std::string silent_;  // the level that went silent (coupling/summary.json silent_level), if one did
   std::vector<std::ofstream> csv_;
 };
 

@@ -99,6 +99,21 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Ou
   io::write_file_atomic(run_dir / "summary.json", s.dump(2) + "\n");
 }
 
+// A level that went silent (hung, SIGSTOP) is the run's failure, whichever process ended first: the
+// coupler that stopped the run, or a level it told to stop. Its pid goes into the coupler's message.
+void name_silent_level(const fs::path& run_dir, const std::vector<Member>& members, Outcome& r) {
+  if (r.exit_code == 0 || r.interrupted) return;
+  const auto cpl = read_json(run_dir / "coupling" / "summary.json");
+  const std::string silent = cpl.value("silent_level", ""), why = cpl.value("error", "");
+  const std::string name = "level '" + silent + "'";
+  if (silent.empty() || why.rfind(name, 0) != 0) return;
+  for (const auto& m : members)
+    if (m.name == name) {
+      r.failed = name + " (pid " + std::to_string(m.pid) + ")" + why.substr(name.size());
+      r.failed_name = name;
+    }
+}
+
 // The coupler's and every level's command line; from a consistent checkpoint when `from` is set.
 // Where each runs and its key files come from `pl` (hosts.hpp).
 std::vector<Member> members_of(const config::CaseSpec& cs, const std::string& case_file, const fs::path& run_dir,
@@ -195,6 +210,7 @@ int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file
     };
     r = supervise(members, so);
     board.end_line();
+    name_silent_level(run_dir, members, r);
     if (r.failed_name == "coupler") {  // its reason is in its log and summary (it runs --quiet)
       const auto why = read_json(run_dir / "coupling" / "summary.json").value("error", "");
       if (!why.empty()) r.failed += ": " + why;

@@ -31,6 +31,7 @@ Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
     for (auto& m : members)
       if (!m.done) {
         kill(-m.pid, sig);
+        if (sig != SIGKILL) kill(-m.pid, SIGCONT);  // a stopped (hung) process handles the signal only when woken
         m.state = "stopping";
       }
   };

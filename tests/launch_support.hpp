@@ -5,6 +5,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
@@ -90,6 +92,46 @@ inline bool wait_for_checkpoint(const fs::path& dir, uint64_t k, pid_t launcher)
     usleep(100000);
   }
   return false;
+}
+
+// Processes whose command line names the run folder (the launcher's children and their MPI ranks).
+inline std::vector<std::string> processes_naming(const fs::path& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string pid = e.path().filename().string();
+    if (pid.find_first_not_of("0123456789") != std::string::npos || std::stoi(pid) == ::getpid()) continue;
+    std::ifstream in(e.path() / "cmdline");
+    std::string cmd((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::replace(cmd.begin(), cmd.end(), '\0', ' ');
+    if (cmd.find(dir.string() + "/") != std::string::npos || cmd.find(dir.string() + " ") != std::string::npos)
+      out.push_back(pid + ": " + cmd);
+  }
+  return out;
+}
+
+// Every process status.json lists (the last attempt's) is gone, and none names the run folder.
+inline void expect_no_process_left(const fs::path& dir) {
+  for (const auto& p : processes_naming(dir)) ADD_FAILURE() << "still running: " << p;
+  const auto st = run_checks::read_json(dir / "status.json");
+  ASSERT_FALSE(st["processes"].empty());
+  for (const auto& p : st["processes"]) {
+    const pid_t pid = p["pid"].get<pid_t>();
+    EXPECT_TRUE(kill(pid, 0) != 0 && errno == ESRCH) << p["name"] << " (pid " << pid << ") is still alive";
+  }
+}
+
+// The pid status.json gives the running process `name` ("level 'fine'"); -1 when none within 10 s.
+inline pid_t pid_of(const fs::path& dir, const std::string& name) {
+  for (int i = 0; i < 100; ++i) {
+    try {
+      const auto st = run_checks::read_json(dir / "status.json");
+      for (const auto& p : st["processes"])
+        if (p["name"] == name && p["state"] == "running") return p["pid"].get<pid_t>();
+    } catch (const std::exception&) {
+    }
+    usleep(100000);
+  }
+  return -1;
 }
 
 }  // namespace launch_support

@@ -79,6 +79,8 @@ struct LevelResult {
   uint64_t intervals = 0;      // commands received
   size_t inserted = 0;         // particles the coupler asked this level to insert
   double traction_sum = 0.0;
+  uint64_t heartbeats = 0;     // the coupler's, received while waiting for commands
+  std::string waiting_for;     // what the last of them said the coupler waited for
 };
 
 // A level without DEM: registers, then answers commands(k) with stats(k). As
@@ -109,6 +111,10 @@ LevelResult scripted_level(const std::string& ep, const CouplerConfig& cfg, size
   std::vector<bool> want(geo.size(), true);          // the coupler asked for the slab's particles
   for (uint64_t k = 0; k < intervals; ++k) {
     auto c = ch.receive(milliseconds(5000));
+    for (; c && c->env.has_heartbeat(); c = ch.receive(milliseconds(5000))) {
+      ++res.heartbeats;
+      res.waiting_for = c->env.heartbeat().waiting_for();
+    }
     if (!c) { res.error = "no commands"; return res; }
     if (c->env.has_bye()) { res.error = c->env.bye().reason(); return res; }
     if (!c->env.has_commands()) { res.error = std::string("unexpected ") + bus::body_name(c->env); return res; }
@@ -315,9 +321,12 @@ TEST(CouplerService, ALevelOfAnotherCaseIsRefusedAndTheMissingLevelNamed) {
 TEST(CouplerService, ASilentLevelIsNamedAndTheOthersAreStopped) {
   const RunResult run = run_hierarchy({2.0, 1.0}, 20, scratch("silent"), {}, 1);
   EXPECT_EQ(run.code, 2);
-  EXPECT_NE(run.error.find("level 'L1' silent"), std::string::npos) << run.error;
-  EXPECT_NE(run.levels[0].error.find("L1"), std::string::npos) << "the coarse level must be told: "
-                                                                << run.levels[0].error;
+  EXPECT_NE(run.error.find("level 'L1' went silent"), std::string::npos) << run.error;
+  EXPECT_NE(run.levels[0].error.find("level 'L1' went silent"), std::string::npos)
+      << "the coarse level must be told: " << run.levels[0].error;
+  // While it waited (2 s of timeout, heartbeat 0.05 s) the coupler kept it alive and named the level it waited for.
+  EXPECT_GE(run.levels[0].heartbeats, 10u);
+  EXPECT_EQ(run.levels[0].waiting_for, "'L1'");
 }
 
 TEST(CouplerService, ThreeLevelsCoupleThroughTheMiddleOne) {

@@ -2,7 +2,9 @@
 // already holds something is refused before anything is written there; the
 // processes of a run end with their launcher, even when it is killed outright,
 // and a run folder takes one live launcher at a time; dem_level honours SIGTERM
-// inside a long insertion batch and while it waits to register with the coupler.
+// inside a long insertion batch and while it waits to register with the coupler;
+// a hung (SIGSTOP) level is named, not the coupler; a local peer flooding the
+// bus without reading is dropped and the run goes on.
 #include <gtest/gtest.h>
 
 #include <sys/file.h>
@@ -10,11 +12,15 @@
 
 #include <map>
 
+#include <zmq.hpp>
+
 #include "launch_support.hpp"
 #include "run_checks.hpp"
 
+using launch_support::expect_no_process_left;
 using launch_support::kBin;
 using launch_support::kSrc;
+using launch_support::pid_of;
 using launch_support::run;
 using launch_support::slurp;
 using launch_support::start;
@@ -299,4 +305,105 @@ TEST(DemLevelSignals, SigtermEndsTheWaitForTheCouplerWithinTwoSeconds) {
       << out;
   fs::remove_all(dir);
   for (const auto& f : {dir.string() + ".out", dir.string() + ".ipc"}) fs::remove(f);
+}
+
+// ---- A hung level is named (fault 4) ----
+
+namespace {
+// The quickstart hierarchy with `[coupling] timeout` set; the case file's path.
+fs::path quickstart_with_timeout(double timeout, const std::string& tag) {
+  std::string text = slurp(kSrc + "/cases/quickstart/mlcg.toml");
+  const std::string from = "[coupling]                 # interval automatic: 1.92e-4 s\n";
+  EXPECT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "[coupling]\ntimeout = " + std::to_string(timeout) + "\n");
+  const fs::path c = temp(tag).string() + ".toml";
+  std::ofstream(c) << text;
+  return c;
+}
+
+// Wakes and kills a process the test stopped, should the run have left it.
+struct ContinueOnExit {
+  pid_t pid;
+  ~ContinueOnExit() {
+    kill(pid, SIGCONT);
+    if (running(pid)) kill(pid, SIGKILL);
+  }
+};
+}  // namespace
+
+// kill -STOP of the fine level: the coarse level waits on the coupler, which waits on 'fine'. The run ends
+// within about the timeout, naming 'fine' as the silent level in the launcher's output, the coupler's log
+// and the summary; the coarse level's summary says it stopped because of 'fine'; nothing blames the coupler, and no
+// process of the run is left (the stopped one included).
+TEST(HungLevel, AStoppedFineLevelIsNamedWithinTheTimeoutAndNoProcessIsLeft) {
+  constexpr double kTimeout = 5.0;
+  const fs::path cfile = quickstart_with_timeout(kTimeout, "hung");
+  const fs::path dir = temp("hung");
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  KillOnExit guard{pid};
+  ASSERT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");
+  const pid_t fine = pid_of(dir, "level 'fine'");
+  ASSERT_GT(fine, 0) << slurp(dir / "status.json");
+  ContinueOnExit wake{fine};
+  ASSERT_EQ(kill(fine, SIGSTOP), 0);
+  // The timeout, then a second or two to stop the others (without waking the stopped level: 15 s more).
+  const auto code = wait_exit_within(pid, kTimeout + 8.0);
+  guard.pid = -1;
+  const std::string out = slurp(dir.string() + ".out");
+  ASSERT_TRUE(code.has_value()) << "the run did not end within the timeout + 8 s of the SIGSTOP:\n" << out;
+  EXPECT_NE(*code, 0);
+  const std::string named = "level 'fine' (pid " + std::to_string(fine) + ") went silent: no message for ";
+  EXPECT_NE(out.find("mlcg: " + named), std::string::npos) << out;
+  const std::string coarse = read_json(dir / "levels" / "coarse" / "summary.json")["reason"];
+  EXPECT_NE(coarse.find("while level 'coarse' waited for the commands of interval"), std::string::npos) << coarse;
+  EXPECT_NE(coarse.find(": level 'fine' went silent"), std::string::npos) << coarse;
+  EXPECT_EQ(out.find("is coupler_service running"), std::string::npos) << "the coupler was blamed:\n" << out;
+  EXPECT_NE(slurp(dir / "coupler.log").find("level 'fine' went silent"), std::string::npos);
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "failed");
+  EXPECT_EQ(s["reason"].get<std::string>().rfind(named, 0), 0u) << s["reason"];
+  EXPECT_EQ(s["coupling"]["silent_level"], "fine");
+  expect_no_process_left(dir);
+  fs::remove_all(dir);
+  for (const auto& f : {dir.string() + ".out", cfile.string()}) fs::remove(f);
+}
+
+// ---- A local peer cannot stall the bus (fault 5) ----
+
+// A DEALER on the run's bus.ipc sends 5000 garbage frames and never reads the coupler's refusals. The
+// coupler drops it once they back up (logged once, its binary id in hex) and the run ends with the per-face
+// totals of an undisturbed run (runs are deterministic).
+TEST(BusFlood, APeerThatNeverReadsIsDroppedAndTheRunIsUnaffected) {
+  const fs::path ref = temp("flood_ref"), dir = temp("flood");
+  for (const auto& d : {ref, dir}) fs::remove_all(d);
+  const std::string quickstart = kSrc + "/cases/quickstart/mlcg.toml";
+  ASSERT_EQ(run(kBin + "/mlcg run " + quickstart + " --out " + ref.string() + " --quiet > " + ref.string() +
+                ".out 2>&1"),
+            0) << slurp(ref.string() + ".out");
+  const pid_t pid = start_mlcg({"run", quickstart, "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  KillOnExit guard{pid};
+  ASSERT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");  // the levels are coupled
+  const std::string id("\x00\xff" "flood", 7);  // bytes a log must not print raw
+  zmq::context_t ctx;
+  zmq::socket_t s(ctx, zmq::socket_type::dealer);
+  s.set(zmq::sockopt::routing_id, id);
+  s.set(zmq::sockopt::sndhwm, 0);  // no limit here: the sends below never block the test
+  s.set(zmq::sockopt::linger, 0);
+  s.connect("ipc://" + (dir / "bus.ipc").string());
+  for (int i = 0; i < 5000; ++i) s.send(zmq::buffer("garbage " + std::to_string(i)), zmq::send_flags::none);
+  // The socket stays open, unread, until the run ends.
+  EXPECT_EQ(wait_exit(pid), 0) << slurp(dir.string() + ".out");
+  guard.pid = -1;
+  EXPECT_EQ(slurp(dir / "coupling" / "faces_region0.csv"), slurp(ref / "coupling" / "faces_region0.csv"));
+  const std::string log = slurp(dir / "coupler.log");
+  const std::string dropped = "dropped peer 0x00ff666c6f6f64";
+  const size_t at = log.find(dropped);
+  EXPECT_NE(at, std::string::npos) << log.substr(0, 4000);
+  EXPECT_EQ(log.find(dropped, at + 1), std::string::npos) << "the drop must be logged once";
+  EXPECT_EQ(log.find(id.substr(1)), std::string::npos) << "the peer's id is logged as raw bytes";
+  for (const auto& d : {ref, dir}) {
+    fs::remove_all(d);
+    fs::remove(d.string() + ".out");
+  }
 }

@@ -20,8 +20,11 @@
 #include "launch_support.hpp"
 #include "run_checks.hpp"
 
+using launch_support::expect_no_process_left;
 using launch_support::kBin;
 using launch_support::kSrc;
+using launch_support::pid_of;
+using launch_support::processes_naming;
 using launch_support::run;
 using launch_support::slurp;
 using launch_support::start_mlcg;
@@ -230,45 +233,6 @@ TEST(MlcgJunction, FineParticlesArePlacedInsideTheWallsBelowAJunction) {
 // ---- Consistent checkpoints, interrupt and resume, failures (issue 5) ----
 
 namespace {
-// Processes whose command line names the run folder (the launcher's children and their MPI ranks).
-std::vector<std::string> processes_naming(const fs::path& dir) {
-  std::vector<std::string> out;
-  for (const auto& e : fs::directory_iterator("/proc")) {
-    const std::string pid = e.path().filename().string();
-    if (pid.find_first_not_of("0123456789") != std::string::npos || std::stoi(pid) == ::getpid()) continue;
-    std::ifstream in(e.path() / "cmdline");
-    std::string cmd((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    std::replace(cmd.begin(), cmd.end(), '\0', ' ');
-    if (cmd.find(dir.string() + "/") != std::string::npos || cmd.find(dir.string() + " ") != std::string::npos)
-      out.push_back(pid + ": " + cmd);
-  }
-  return out;
-}
-
-// Every process status.json lists (the last attempt's) is gone, and none names the run folder.
-void expect_no_process_left(const fs::path& dir) {
-  for (const auto& p : processes_naming(dir)) ADD_FAILURE() << "still running: " << p;
-  const auto st = read_json(dir / "status.json");
-  ASSERT_FALSE(st["processes"].empty());
-  for (const auto& p : st["processes"]) {
-    const pid_t pid = p["pid"].get<pid_t>();
-    EXPECT_TRUE(kill(pid, 0) != 0 && errno == ESRCH) << p["name"] << " (pid " << pid << ") is still alive";
-  }
-}
-
-pid_t pid_of(const fs::path& dir, const std::string& name) {
-  for (int i = 0; i < 100; ++i) {
-    try {
-      const auto st = read_json(dir / "status.json");
-      for (const auto& p : st["processes"])
-        if (p["name"] == name && p["state"] == "running") return p["pid"].get<pid_t>();
-    } catch (const std::exception&) {
-    }
-    usleep(100000);
-  }
-  return -1;
-}
-
 fs::path case_with(const std::string& extra, const std::string& tag) {
   const fs::path c = fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()) + ".toml");
   std::ofstream(c) << slurp(kSrc + "/cases/quickstart/mlcg.toml") << "\n" << extra << "\n";

@@ -47,6 +47,12 @@ std::string Client::wait_for(int want, const std::string& what, bool heartbeats,
   const auto interrupted = [&] {
     // What is queued may have nobody to go to (a coupler that never came): the exit must not wait for it.
     ch_->socket().set(zmq::sockopt::linger, 0);
+    // The launcher stops the levels once the coupler ended the run: its goodbye, if here, says why.
+    try {
+      while (auto in = ch_->receive(std::chrono::milliseconds(0)))
+        if (in->ok() && in->env.has_bye()) return ended(in->env.bye(), what);
+    } catch (const zmq::error_t&) {  // interrupted again: the signal is reason enough
+    }
     return CouplingError("interrupted by a signal while level '" + opt_.level_name + "' waited for " + what);
   };
   for (;;) {
@@ -54,7 +60,9 @@ std::string Client::wait_for(int want, const std::string& what, bool heartbeats,
     const auto now = Clock::now();
     if (now >= deadline)
       throw CouplingError("no message from the coupler at " + opt_.endpoint + " for " + seconds(opt_.timeout) +
-                          " while waiting for " + what + " (timeout); is coupler_service running and reachable there?");
+                          " while waiting for " + what + " (timeout)" +
+                          (awaited_.empty() ? "" : "; it last said it waited for level(s) " + awaited_) +
+                          "; is coupler_service running and reachable there?");
     auto until = deadline;
     if (heartbeats) until = std::min(until, last_sent_ + span(opt_.heartbeat));
     const auto wait = std::clamp<int64_t>(
@@ -96,13 +104,18 @@ std::string Client::wait_for(int want, const std::string& what, bool heartbeats,
     if (env.has_refused())
       throw CouplingError("the coupler at " + opt_.endpoint + " refused level '" + opt_.level_name +
                           "': " + env.refused().reason());
-    if (env.has_bye())
-      throw CouplingError("the coupler at " + opt_.endpoint + " ended the run" +
-                          (env.bye().failed() ? " (failed)" : "") + " while level '" + opt_.level_name +
-                          "' waited for " + what + ": " + env.bye().reason());
-    if (env.has_heartbeat()) continue;
+    if (env.has_bye()) throw ended(env.bye(), what);
+    if (env.has_heartbeat()) {
+      awaited_ = env.heartbeat().waiting_for();
+      continue;
+    }
     if (opt_.warn) opt_.warn("ignored a " + std::string(bus::body_name(env)) + " from the coupler while waiting for " + what);
   }
+}
+
+CouplingError Client::ended(const bus::Bye& bye, const std::string& what) const {
+  return CouplingError("the coupler at " + opt_.endpoint + " ended the run" + (bye.failed() ? " (failed)" : "") +
+                       " while level '" + opt_.level_name + "' waited for " + what + ": " + bye.reason());
 }
 
 std::string Client::broadcast(const std::function<std::string()>& fetch) {

@@ -8,9 +8,10 @@
 //   interval k: commands(k) -> ... steps ... -> send_stats(k)
 //   end:        bye()
 //
-// While waiting, rank 0 sends a Heartbeat every heartbeat seconds; when nothing
-// arrives for timeout seconds it stops the level with an error naming the
-// coupler's endpoint. Nothing here exists (no ZeroMQ context, no socket) unless
+// While waiting, rank 0 sends a Heartbeat every heartbeat seconds; the coupler
+// sends its own to a level waiting on it. When nothing arrives for timeout
+// seconds it stops the level with an error naming the coupler's endpoint (and
+// the levels the coupler last said it waited for). Nothing here exists (no ZeroMQ context, no socket) unless
 // a level is started with a coupler.
 #include <chrono>
 #include <cstdint>
@@ -70,12 +71,15 @@ class Client {
   // Every rank: rank 0's result (or error) of `fetch`.
   std::string broadcast(const std::function<std::string()>& fetch);
   void send(const bus::Envelope& env);
+  // The error for the coupler's Bye received while waiting for `what`.
+  CouplingError ended(const bus::Bye& bye, const std::string& what) const;
 
   const Comm& comm_;
   ClientOptions opt_;
   std::unique_ptr<zmq::context_t> ctx_;
   std::unique_ptr<bus::Channel> ch_;
   Clock::time_point last_sent_;
+  std::string awaited_;  // the levels the coupler's last heartbeat said it waited for
 };
 
 }  // namespace mlcg::coupling

@@ -1,8 +1,10 @@
 #include "bus/channel.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <vector>
 
+#include <fmt/format.h>
 #include <zmq_addon.hpp>
 
 namespace mlcg::bus {
@@ -51,6 +53,15 @@ const char* body_name(const Envelope& env) {
   return "empty";
 }
 
+std::string peer_name(const std::string& id) {
+  const bool printable =
+      !id.empty() && std::all_of(id.begin(), id.end(), [](char c) { return c >= 0x20 && c < 0x7f && c != '\''; });
+  if (printable) return "'" + id + "'";
+  std::string hex = "0x";
+  for (const unsigned char c : id) hex += fmt::format("{:02x}", c);
+  return hex;
+}
+
 Channel::Channel(zmq::context_t& ctx, Role role, const std::string& endpoint, const std::string& identity,
                  size_t max_bytes, const curve::SocketKeys* keys)
     : role_(role), identity_(identity), max_bytes_(max_bytes),
@@ -65,7 +76,9 @@ Channel::Channel(zmq::context_t& ctx, Role role, const std::string& endpoint, co
   curve::require_curve_for(endpoint, keys != nullptr, curve::kHowToEnable);
   if (keys) curve::apply(sock_, *keys, role == Role::Router);
   if (role == Role::Router) {
+    // Mandatory: a send to a full or unknown peer fails instead of vanishing (send() below).
     sock_.set(zmq::sockopt::router_mandatory, 1);
+    sock_.set(zmq::sockopt::sndhwm, kRouterSendHwm);
     sock_.bind(endpoint);
   } else {
     if (identity.empty()) throw std::invalid_argument("bus: a dealer needs an identity (its level name)");
@@ -76,14 +89,18 @@ Channel::Channel(zmq::context_t& ctx, Role role, const std::string& endpoint, co
 
 std::string Channel::endpoint() const { return sock_.get(zmq::sockopt::last_endpoint); }
 
-void Channel::send(const Envelope& env, const std::string& peer) {
+bool Channel::send(const Envelope& env, const std::string& peer) {
   const std::string bytes = encode(env, role_ == Role::Router ? std::string("coupler") : identity_);
   try {
     if (role_ == Role::Router) {
       if (peer.empty()) throw std::invalid_argument("bus: router send needs a peer");
-      sock_.send(zmq::buffer(peer), zmq::send_flags::sndmore);
+      // The coupler's loop must never wait on one peer: a full queue fails at the routing frame (EAGAIN).
+      if (!sock_.send(zmq::buffer(peer), zmq::send_flags::sndmore | zmq::send_flags::dontwait)) return false;
+      sock_.send(zmq::buffer(bytes), zmq::send_flags::dontwait);
+      return true;
     }
     sock_.send(zmq::buffer(bytes), zmq::send_flags::none);
+    return true;
   } catch (const zmq::error_t& e) {
     throw std::runtime_error("bus: cannot send " + std::string(body_name(env)) +
                              (peer.empty() ? std::string() : " to '" + peer + "'") + ": " + e.what());

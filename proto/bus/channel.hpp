@@ -43,6 +43,13 @@ Decoded decode(const void* data, size_t size, size_t max_bytes = kDefaultMaxByte
 // Name of the body case, for logs ("stats", "commands", ...).
 const char* body_name(const Envelope& env);
 
+// A routing id for logs: 'name' when it is printable ASCII, else its bytes in hex (0x00ff...), so a
+// stranger's binary id cannot garble a log.
+std::string peer_name(const std::string& id);
+
+// Router: messages queued for one peer before a send to it fails (a peer that does not read).
+inline constexpr int kRouterSendHwm = 1000;
+
 struct Incoming {
   std::string peer;   // ROUTER: the sender's identity; DEALER: empty
   Envelope env;
@@ -59,8 +66,10 @@ class Channel {
   Channel(zmq::context_t& ctx, Role role, const std::string& endpoint, const std::string& identity,
           size_t max_bytes = kDefaultMaxBytes, const curve::SocketKeys* keys = nullptr);
 
-  // Router: `peer` names the destination (throws std::runtime_error if it is not connected).
-  void send(const Envelope& env, const std::string& peer = {});
+  // Router: `peer` names the destination (throws std::runtime_error if it is not connected). Never
+  // blocks: false, and nothing sent, when kRouterSendHwm messages wait for the peer (it does not read).
+  // Dealer: blocks while the router's queue is full; always true.
+  bool send(const Envelope& env, const std::string& peer = {});
   // Waits up to `timeout` for one message; nullopt when none arrived.
   std::optional<Incoming> receive(std::chrono::milliseconds timeout);
 
