@@ -180,7 +180,10 @@ void Service::handle(const bus::Incoming& in) {
   if (env.has_heartbeat()) return;
   if (env.has_bye()) {
     p.finished = true;
-    if (env.bye().failed()) return fail(fmt::format("level '{}' failed: {}", p.identity, env.bye().reason()));
+    if (env.bye().failed()) {
+      failed_ = p.identity;
+      return fail(fmt::format("level '{}' failed: {}", p.identity, env.bye().reason()));
+    }
     log_->info("level '{}' finished at interval {}", p.identity, k_);
     return;
   }
@@ -221,6 +224,7 @@ void Service::write_final(const std::string& status) const {
   j["checkpoints"] = checkpoints_;
   j["error"] = error_;
   j["silent_level"] = silent_;
+  j["failed_level"] = failed_;
   j["intervals"] = k_;
   j["interval_s"] = coupler_.config().interval;
   j["coupler_busy_seconds"] = busy_;

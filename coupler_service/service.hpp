@@ -130,6 +130,7 @@ class Service {
   double progress_wall_ = -1.0, start_wall_ = 0.0, start_sim_ = 0.0;  // for the progress file and its ETA
   std::string error_;
   std::string silent_;  // the level that went silent (coupling/summary.json silent_level), if one did
+  std::string failed_;  // the level that said it failed (failed_level), if one did
   std::vector<std::ofstream> csv_;
 };
 

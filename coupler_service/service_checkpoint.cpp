@@ -1,5 +1,8 @@
 // Consistent hierarchy checkpoints on the coupler's side (see service.hpp).
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -105,6 +108,13 @@ void Service::write_checkpoint(const std::vector<bus::IntervalStats>& stats,
   // The set before stays on disk, named in the manifest: if this one is damaged later (a disk
   // fault, a file cut short), the run can still continue from that one (`mlcg resume --previous`).
   const std::string previous = keep_previous(m, root / "manifest.json");
+  // The log rows up to k belong to the set: on disk before the manifest names it (a coupler killed just after
+  // would lose them, and a resume keeps only the rows before k that are there).
+  for (size_t r = 0; r < csv_.size(); ++r)
+    if (!csv_[r].flush()) {
+      const fs::path csv = opt_.out_dir / "coupling" / fmt::format("region{}.csv", r);
+      throw std::runtime_error(fmt::format("cannot write {}: {}", csv.string(), std::strerror(errno)));
+    }
   // The manifest is renamed last: until then the previous set stays the consistent one.
   io::write_file_atomic(root / "manifest.json", m.dump(2) + "\n");
   ++checkpoints_;
@@ -113,7 +123,6 @@ void Service::write_checkpoint(const std::vector<bus::IntervalStats>& stats,
     std::error_code ec;
     fs::remove_all(e.path(), ec);
   }
-  for (auto& f : csv_) f.flush();
   log_->info("consistent checkpoint {} at interval {} (t = {} s)", (root / "manifest.json").string(), k_,
              m["sim_time"].get<double>());
 }
@@ -123,12 +132,13 @@ void Service::resume_logs() {
     const fs::path path = opt_.out_dir / "coupling" / fmt::format("region{}.csv", r);
     std::ifstream in(path);
     std::string line, kept;
-    bool header = true;
-    while (std::getline(in, line)) {
-      // Rows of intervals at or past the resumed one are computed again.
-      if (header || std::stoull(line.substr(0, line.find(','))) < k_) kept += line + "\n";
-      header = false;
-    }
+    if (!std::getline(in, line)) continue;
+    const auto columns = std::count(line.begin(), line.end(), ',');
+    kept = line + "\n";
+    // Rows of intervals at or past the resumed one are computed again; a row cut short (a full disk) is dropped.
+    while (std::getline(in, line))
+      if (std::count(line.begin(), line.end(), ',') == columns && std::stoull(line.substr(0, line.find(','))) < k_)
+        kept += line + "\n";
     io::write_file_atomic(path, kept);
   }
 }

@@ -99,19 +99,33 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Ou
   io::write_file_atomic(run_dir / "summary.json", s.dump(2) + "\n");
 }
 
-// A level that went silent (hung, SIGSTOP) is the run's failure, whichever process ended first: the
-// coupler that stopped the run, or a level it told to stop. Its pid goes into the coupler's message.
-void name_silent_level(const fs::path& run_dir, const std::vector<Member>& members, Outcome& r) {
+// A level that went silent (hung, SIGSTOP) or told the coupler it failed (a signal, a full disk) is the run's
+// failure, whichever process ended first: the coupler that stopped the run on its account, or a level it told
+// to stop. Its pid goes into the coupler's message.
+void name_failed_level(const fs::path& run_dir, const std::vector<Member>& members, Outcome& r) {
   if (r.exit_code == 0 || r.interrupted) return;
   const auto cpl = read_json(run_dir / "coupling" / "summary.json");
-  const std::string silent = cpl.value("silent_level", ""), why = cpl.value("error", "");
-  const std::string name = "level '" + silent + "'";
-  if (silent.empty() || why.rfind(name, 0) != 0) return;
+  std::string level = cpl.value("silent_level", "");
+  if (level.empty()) level = cpl.value("failed_level", "");
+  const std::string why = cpl.value("error", ""), name = "level '" + level + "'";
+  if (level.empty() || why.rfind(name, 0) != 0) return;
   for (const auto& m : members)
     if (m.name == name) {
       r.failed = name + " (pid " + std::to_string(m.pid) + ")" + why.substr(name.size());
       r.failed_name = name;
     }
+}
+
+// A coupler that went silent (hung, SIGSTOP) is noticed by the levels waiting on it: the first to time out
+// ends first, but the coupler is the run's failure. Its pid goes into the level's message.
+void name_silent_coupler(const fs::path& run_dir, const std::vector<Member>& members, Outcome& r) {
+  const std::string prefix = "level '";
+  if (r.exit_code == 0 || r.interrupted || r.failed_name.rfind(prefix, 0) != 0) return;
+  const std::string level = r.failed_name.substr(prefix.size(), r.failed_name.size() - prefix.size() - 1);
+  const std::string why = read_json(run_dir / "levels" / level / "summary.json").value("reason", "");
+  if (why.rfind("no message from the coupler", 0) != 0) return;
+  r.failed = "coupler (pid " + std::to_string(members.front().pid) + ") went silent: " + r.failed_name + ": " + why;
+  r.failed_name = "coupler";
 }
 
 // The coupler's and every level's command line; from a consistent checkpoint when `from` is set.
@@ -210,11 +224,12 @@ int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file
     };
     r = supervise(members, so);
     board.end_line();
-    name_silent_level(run_dir, members, r);
+    name_failed_level(run_dir, members, r);
     if (r.failed_name == "coupler") {  // its reason is in its log and summary (it runs --quiet)
       const auto why = read_json(run_dir / "coupling" / "summary.json").value("error", "");
       if (!why.empty()) r.failed += ": " + why;
     }
+    name_silent_coupler(run_dir, members, r);
     // A swap continues from the checkpoint the stop wrote; a swapped-in binary that failed is replaced
     // by the previous one, from the same checkpoint. Neither counts as a restart.
     const bool swapping = r.stopped_for_swap && r.failed.empty();

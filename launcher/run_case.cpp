@@ -36,14 +36,17 @@ std::string default_run_dir(const std::string& case_file) {
       .string();
 }
 
-void print_summary(const fs::path& run_dir) {
+// `code`: the level's exit code. A level that failed on a full disk may have left the summary it wrote last.
+void print_summary(const fs::path& run_dir, int code) {
   std::ifstream in(run_dir / "summary.json");
   if (!in) {
     std::printf("no summary.json in %s\n", run_dir.c_str());
     return;
   }
   const auto j = nlohmann::json::parse(in);
-  std::printf("\n== %s: %s ==\n", run_dir.c_str(), j.value("status", "?").c_str());
+  std::string status = j.value("status", "?");
+  if (code != 0 && status == "running") status = "failed (summary.json could not be updated since, it says running)";
+  std::printf("\n== %s: %s ==\n", run_dir.c_str(), status.c_str());
   if (!j.value("reason", "").empty()) std::printf("reason: %s\n", j["reason"].get<std::string>().c_str());
   std::printf("simulated %.4f s in %.1f s wall\n", j.value("simulated_time", 0.0), j.value("wall_seconds", 0.0));
   for (const auto& l : j["levels"])
@@ -149,7 +152,7 @@ int run_launched(const config::CaseSpec& cs, const std::string& case_file, const
   std::fflush(stdout);
   const pid_t child = launcher::spawn(argv);
   const auto r = launcher::wait_group({{"dem_level", child}});
-  print_summary(out_dir);
+  print_summary(out_dir, r.exit_code);
   if (r.exit_code != 0) std::fprintf(stderr, "mlcg: dem_level exited with code %d\n", r.exit_code);
   return r.exit_code;
 }

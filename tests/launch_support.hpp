@@ -91,11 +91,26 @@ inline fs::path quickstart_with_timeout(double timeout, const std::string& tag) 
   return c;
 }
 
+// quickstart_with_timeout cut to 0.15 s (781 intervals, the lid still closed): faults, resumes and the reference
+// run to compare with in a few seconds each. With `fine_ranks` > 1 the fine level runs on that many ranks.
+inline fs::path short_quickstart(double timeout, int fine_ranks, const std::string& tag) {
+  const fs::path c = quickstart_with_timeout(timeout, tag);
+  std::string text = slurp(c);
+  const std::string end = "end = 0.6", fine = "name = \"fine\"\nalpha = 1.0\n";
+  EXPECT_NE(text.find(end), std::string::npos);
+  EXPECT_NE(text.find(fine), std::string::npos);
+  text.replace(text.find(end), end.size(), "end = 0.15");
+  if (fine_ranks > 1) text.replace(text.find(fine), fine.size(), fine + "ranks = " + std::to_string(fine_ranks) + "\n");
+  std::ofstream(c) << text;
+  return c;
+}
+
 // `mlcg run` of a case in the source tree (`path`) to its end, into a new temporary folder named by `tag`.
+// (An absolute `path` is taken as it is.)
 inline fs::path run_hierarchy_case(const std::string& path, const std::string& tag) {
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()));
+  const fs::path dir = temp(tag), c = fs::path(path).is_absolute() ? fs::path(path) : fs::path(kSrc) / path;
   fs::remove_all(dir);
-  EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/" + path + " --out " + dir.string() + " --quiet > " + dir.string() +
+  EXPECT_EQ(run(kBin + "/mlcg run " + c.string() + " --out " + dir.string() + " --quiet > " + dir.string() +
                 ".out 2>&1"),
             0)
       << "see " << dir.string() << ".out";

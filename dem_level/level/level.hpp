@@ -231,6 +231,7 @@ class Level {
   void check_inserted_walls(Coupled& c, const bus::CouplingGeometry& geo, size_t first);  // particles [first, n)
   void coupling_refresh();              // rebuild: crossing candidates
   bool coupling_finished() const;       // the coupler said stop and the last interval is done
+  bool coupling_mid_interval() const;   // coupled, with steps of the current interval still to run
   const std::string& coupling_stop_reason() const;  // non-empty: the coupler cut the run short
   void coupling_bye(RunStatus status, const std::string& reason);
 

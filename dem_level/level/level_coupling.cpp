@@ -279,6 +279,8 @@ void Level::coupling_refresh() {
 
 bool Level::coupling_finished() const { return coupled_->finished; }
 
+bool Level::coupling_mid_interval() const { return coupled_ && coupled_->done != 0; }
+
 const std::string& Level::coupling_stop_reason() const { return coupled_->stop_reason; }
 
 Level::CouplingReport Level::coupling_report() const {

@@ -71,7 +71,9 @@ RunStatus Level::run() {
   bool output_failed = false;
   try {
     while (true) {
-      if (end_time_ >= 0.0 && time() >= end_time_ - half) break;
+      // A coupled level ends with an interval: one cut short has received and inserted the coupler's particles
+      // but never reports them, and the coupler would take them back.
+      if (end_time_ >= 0.0 && time() >= end_time_ - half && !coupling_mid_interval()) break;
       if (comm_.any(stopping())) {
         status = RunStatus::Interrupted;
         reason = "interrupted by a signal";

@@ -4,8 +4,8 @@
 // with CURVE. The run hands the mass over exactly as a local run does (the very
 // same per-face numbers), and clients without the run's keys, connecting from
 // the launcher's side of the bridge, are refused and logged by the coupler.
-// Skipped unless root with `ip netns`; the namespaces are removed in every case
-// (and a later setup removes what a killed run left).
+// A partition of the fine level's host is named and resumed from. Skipped unless root with `ip netns`; the
+// namespaces are removed in every case (and a later setup removes what a killed run left).
 #include <gtest/gtest.h>
 
 #include <signal.h>
@@ -19,6 +19,7 @@
 
 #include <zmq.hpp>
 
+#include "../launch_support.hpp"
 #include "../run_checks.hpp"
 
 namespace fs = std::filesystem;
@@ -177,4 +178,50 @@ TEST_F(AcrossHosts, TwoLevelHopperOnThreeHostsWithCurveMatchesTheLocalRun) {
     fs::remove(p.string() + ".out");
   }
   fs::remove(hostfile);
+}
+
+// A network partition: after a consistent checkpoint the fine level's host (mlcg-h3) loses its link to the bridge
+// (every packet to and from it dropped). The coupler hears nothing from 'fine' for [coupling] timeout and names
+// it; the launcher stops every process, the ones in the cut-off namespace included. With the link back, `mlcg
+// resume` (on this machine, over ipc) continues from the checkpoint to the local run's result.
+TEST_F(AcrossHosts, APartitionedLevelHostIsNamedAndTheRunResumesToTheLocalResult) {
+  constexpr double kTimeout = 10.0;
+  const fs::path cfile = launch_support::short_quickstart(kTimeout, 1, "netns_cut");
+  const fs::path dir = launch_support::temp("netns_cut"), hostfile = dir.string() + ".hosts";
+  fs::remove_all(dir);
+  std::ofstream(hostfile) << "rsh_agent " << kNetns << "/netns_rsh\n"
+                          << "mca oob_tcp_if_include 10.77.0.0/24\n"
+                          << "mlcg-h1 slots=1 coupler\n"
+                          << "mlcg-h2 slots=1 levels=coarse\n"
+                          << "mlcg-h3 slots=1 levels=fine\n";
+  const pid_t mlcg = launch_support::start_mlcg(
+      {"run", cfile.string(), "--hosts", hostfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  launch_support::KillOnExit guard{mlcg};
+  ASSERT_TRUE(launch_support::wait_for_checkpoint(dir, 100, mlcg)) << read_text(dir.string() + ".out");
+  const pid_t fine = launch_support::pid_of(dir, "level 'fine'");
+  ASSERT_EQ(sh("ip link set mlcg-v3 down"), 0);
+  const auto code = launch_support::wait_exit_within(mlcg, kTimeout + 60.0);
+  guard.pid = -1;
+  EXPECT_EQ(sh("ip link set mlcg-v3 up"), 0);
+  const std::string out = read_text(dir.string() + ".out");
+  ASSERT_TRUE(code.has_value()) << "the launcher did not end within the timeout + 60 s:\n" << out;
+  EXPECT_NE(*code, 0);
+  const std::string named = "level 'fine' (pid " + std::to_string(fine) + ") went silent: ";
+  EXPECT_NE(out.find("mlcg: " + named), std::string::npos) << out;
+  EXPECT_EQ(read_json(dir / "summary.json")["reason"].get<std::string>().rfind(named, 0), 0u) << out;
+  launch_support::expect_no_process_left(dir);
+  for (const char* host : {"mlcg-h1", "mlcg-h2", "mlcg-h3"}) {
+    const std::string left = "/tmp/mlcg_netns_pids_" + std::to_string(getpid());
+    sh(std::string("ip netns pids ") + host + " > " + left);
+    EXPECT_EQ(read_text(left), "") << "processes left in " << host;
+    fs::remove(left);
+  }
+
+  ASSERT_EQ(sh(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
+      << read_text(dir.string() + ".out");
+  const fs::path local = launch_support::run_hierarchy_case(cfile.string(), "netns_cut_local");
+  launch_support::expect_same_result(dir, local);
+  for (const auto& d : {dir, local}) launch_support::remove_run(d);
+  fs::remove(hostfile);
+  fs::remove(cfile);
 }

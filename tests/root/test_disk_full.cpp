@@ -18,24 +18,21 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../launch_support.hpp"
 #include "io/h5.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kBin = MLCG_BIN_DIR;
-const std::string kSrc = MLCG_SOURCE_DIR;
+using launch_support::kBin;
+using launch_support::kSrc;
+using launch_support::slurp;
 
 int sh(const std::string& cmd) {
   const int s = std::system(cmd.c_str());
   if (WIFSIGNALED(s)) return 128 + WTERMSIG(s);
   return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return {(std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()};
 }
 
 // A tmpfs of `kib` KiB mounted for one test, unmounted by the destructor.
@@ -155,4 +152,172 @@ TEST(DiskFull, SingleLevelThroughTheLauncherEndsWithTheLevelsCode) {
   EXPECT_EQ(mlcg_run_on(disk, "cases/quickstart/case.toml", text), 3) << text;  // the level's "failed"
   EXPECT_EQ(text.find("terminate called"), std::string::npos) << text;  // the launcher does not abort either
   EXPECT_NE(text.find("== " + (disk.dir() / "run").string() + ": failed =="), std::string::npos) << text;
+}
+
+// ---- the disk fills at a chosen write (issue 13, fault matrix) ----
+
+namespace {
+using launch_support::fingerprint;
+
+// Fills the file system of `dir` with `dir`/filler until `leave` bytes are free; with `leave` = 0 until a
+// write fails.
+void fill(const fs::path& dir, uintmax_t leave) {
+  const uintmax_t page = 4096, free = fs::space(dir).available;
+  std::ofstream f(dir / "filler", std::ios::binary | std::ios::app);
+  const std::string block(page, 'x');
+  for (uintmax_t n = free > leave ? (free - leave) / page : 0; n > 0 && f.write(block.data(), block.size()); --n) {
+  }
+  while (leave == 0 && f.put('x') && f.flush()) {
+  }
+}
+
+// `rel` in the source tree with each (from, to) replaced, written beside the temporary files; its path.
+fs::path edited_case(const std::string& rel, const std::vector<std::pair<std::string, std::string>>& edits,
+                     const std::string& tag) {
+  std::string text = slurp(kSrc + "/" + rel);
+  for (const auto& [from, to] : edits) {
+    const size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+  }
+  const fs::path c = launch_support::temp("full_" + tag).string() + ".toml";
+  std::ofstream(c) << text;
+  return c;
+}
+
+void expect_no_temporary_files(const fs::path& dir) {
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << e.path();
+}
+
+// The quickstart hierarchy writing nothing big but its consistent checkpoints (no snapshots, no grids).
+const std::vector<std::pair<std::string, std::string>> kCheckpointsOnly = {
+    {"snapshot_interval = 0.05", "snapshot_interval = 10.0"}, {"[[grids]]\nname = \"hopper\"", "[[grids]]\nname = \"unused\""},
+    {"output_interval = 0.02", "output_interval = 10.0"}};
+}  // namespace
+
+// The disk fills after the consistent set of interval >= 1000 so that half that set's size is left: the next set
+// cannot be written. The level whose checkpoint does not fit is named with the file and the system's reason, no
+// process crashes or is left, the sets the manifest names stay as they were, and once there is room again `mlcg
+// resume` ends with the result of a run on a roomy disk.
+TEST(DiskFull, AConsistentSetThatDoesNotFitKeepsTheLastOneAndTheRunResumesToTheSameResult) {
+  TinyDisk disk(64 * 1024);
+  if (!disk.skip_reason().empty()) GTEST_SKIP() << disk.skip_reason();
+  const fs::path cfile = edited_case("cases/quickstart/mlcg.toml", kCheckpointsOnly, "sets");
+  const fs::path ref = launch_support::temp("full_sets_ref"), dir = disk.dir() / "run", out = ref.string() + ".run";
+  ASSERT_EQ(sh(kBin + "/mlcg run " + cfile.string() + " --out " + ref.string() + " --quiet > " + ref.string() +
+               ".out 2>&1"),
+            0) << slurp(ref.string() + ".out");
+  const pid_t pid = launch_support::start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, out);
+  launch_support::KillOnExit guard{pid};
+  ASSERT_TRUE(launch_support::wait_for_checkpoint(dir, 1000, pid)) << slurp(out);
+  uintmax_t set = 0;
+  const auto m = nlohmann::json::parse(slurp(dir / "checkpoints" / "manifest.json"));
+  for (const auto& e : fs::directory_iterator(dir / "checkpoints" / fs::path(m["coupler"].get<std::string>()).parent_path()))
+    set += e.file_size();
+  fill(disk.dir(), set / 2);
+  const auto sets = fingerprint(dir / "checkpoints");
+  const auto code = launch_support::wait_exit_within(pid, 120.0);
+  guard.pid = -1;
+  const std::string text = slurp(out);
+  ASSERT_TRUE(code.has_value()) << text;
+  EXPECT_NE(*code, 0) << text;
+  EXPECT_EQ(text.find("signal 11"), std::string::npos) << text;
+  EXPECT_NE(text.find("mlcg: level '"), std::string::npos) << "no level named: " << text;
+  EXPECT_NE(text.find(": No space left on device"), std::string::npos) << text;
+  EXPECT_NE(text.find((dir / "checkpoints" / "i").string()), std::string::npos) << "the file is not named: " << text;
+  // Every file of the sets there when the disk filled, the manifest included, is there unchanged.
+  const auto after = fingerprint(dir / "checkpoints");
+  for (const auto& [file, hash] : sets) {
+    ASSERT_TRUE(after.count(file)) << file << " was removed after the disk filled";
+    EXPECT_EQ(after.at(file), hash) << file << " changed after the disk filled";
+  }
+  launch_support::expect_no_process_left(dir);
+  expect_no_temporary_files(dir);
+  fs::remove(disk.dir() / "filler");
+  ASSERT_EQ(sh(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + out.string() + " 2>&1"), 0) << slurp(out);
+  launch_support::expect_same_result(dir, ref);
+  launch_support::remove_run(ref);
+  fs::remove(out);
+  fs::remove(cfile);
+}
+
+// A single level through `mlcg run`, checkpointing every 0.01 s, on a disk filled to the last byte once its
+// first checkpoint and summary exist (at t = 0.01 s of 0.1 s): the next checkpoint cannot be written, nor can the summary after it. The
+// level and the launcher say so and end with code 3; every file written before stays whole (the summary as it
+// was, not half-written); and that checkpoint, continued on a roomy disk, ends as an uninterrupted run does.
+TEST(DiskFull, ACheckpointAndTheSummaryThatDoNotFitLeaveTheLastOnesWholeAndRestartable) {
+  TinyDisk disk(64 * 1024);
+  if (!disk.skip_reason().empty()) GTEST_SKIP() << disk.skip_reason();
+  const fs::path cfile = edited_case("cases/quickstart/case.toml",
+                                     {{"snapshot_interval = 0.05", "snapshot_interval = 10.0"},
+                                      {"checkpoint_interval = 0.2", "checkpoint_interval = 0.01"},
+                                      {"output_interval = 0.02", "output_interval = 10.0"},
+                                      {"end = { event = \"open\", plus = 0.5 }", "end = 0.1"}},
+                                     "single");
+  const fs::path ref = launch_support::temp("full_single_ref"), dir = disk.dir() / "run", out = ref.string() + ".run";
+  ASSERT_EQ(sh(kBin + "/dem_level " + cfile.string() + " --out " + ref.string() + " --quiet"), 0);
+  fill(disk.dir(), 1024 * 1024);  // the last MiB then fills in milliseconds, long before the run's end
+  const pid_t pid = launch_support::start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, out);
+  launch_support::KillOnExit guard{pid};
+  for (int i = 0; i < 6000 && !fs::exists(dir / "summary.json"); ++i) usleep(10000);  // after the first checkpoint
+  ASSERT_TRUE(fs::exists(dir / "checkpoint.h5")) << slurp(out);
+  fill(disk.dir(), 0);
+  auto before = fingerprint(dir);
+  before.erase("log.txt");  // appends may still fill its last page
+  const auto code = launch_support::wait_exit_within(pid, 120.0);
+  guard.pid = -1;
+  const std::string text = slurp(out);
+  EXPECT_EQ(code, 3) << text;
+  EXPECT_NE(text.find("dem_level: level 'main' failed: cannot write the run's output: write failed for '" +
+                      (dir / "checkpoint.h5").string() + "': No space left on device"),
+            std::string::npos) << text;
+  EXPECT_NE(text.find("mlcg: cannot add the CPU time to the summary: write failed for '" +
+                      (dir / "summary.json").string() + "': No space left on device"),
+            std::string::npos) << text;
+  EXPECT_NE(text.find(": failed (summary.json could not be updated since, it says running) =="), std::string::npos)
+      << text;
+  auto after = fingerprint(dir);
+  after.erase("log.txt");
+  EXPECT_EQ(after, before) << "a file written before the disk filled changed";
+  EXPECT_EQ(nlohmann::json::parse(slurp(dir / "summary.json"))["status"], "running") << "the summary was rewritten";
+  expect_no_temporary_files(dir);
+
+  // The checkpoint left behind continues (on a roomy disk) to the uninterrupted run's end.
+  const fs::path copy = launch_support::temp("full_single_copy");
+  fs::remove_all(copy);
+  fs::copy(dir, copy, fs::copy_options::recursive);
+  fs::remove(disk.dir() / "filler");
+  ASSERT_EQ(sh(kBin + "/dem_level " + cfile.string() + " --out " + copy.string() + " --restart " +
+               (copy / "checkpoint.h5").string() + " --quiet"),
+            0);
+  EXPECT_EQ(slurp(copy / "series.csv"), slurp(ref / "series.csv"));
+  EXPECT_EQ(nlohmann::json::parse(slurp(copy / "summary.json"))["mass_balance"],
+            nlohmann::json::parse(slurp(ref / "summary.json"))["mass_balance"]);
+  for (const auto& d : {ref, copy}) fs::remove_all(d);
+  fs::remove(out);
+  fs::remove(cfile);
+}
+
+// A level on two ranks whose snapshots fill the disk: rank 0's write error reaches both ranks, the level ends
+// with code 3 naming the file, and no rank is left.
+TEST(DiskFull, ATwoRankLevelStopsOnBothRanksNamingTheFile) {
+  TinyDisk disk(2048);
+  if (!disk.skip_reason().empty()) GTEST_SKIP() << disk.skip_reason();
+  const fs::path cfile = edited_case("cases/quickstart/case.toml",
+                                     {{"snapshot_interval = 0.05", "snapshot_interval = 0.001"},
+                                      {"dt = 1.2e-5", "dt = 1.2e-5\nranks = 2"}},
+                                     "ranks");
+  const fs::path dir = disk.dir() / "run", out = launch_support::temp("full_ranks").string() + ".out";
+  const int rc = sh("timeout 300 " + kBin + "/mlcg run " + cfile.string() + " --out " + dir.string() + " --quiet > " +
+                    out.string() + " 2>&1");
+  const std::string text = slurp(out);
+  EXPECT_EQ(rc, 3) << text;
+  EXPECT_NE(text.find("No space left on device"), std::string::npos) << text;
+  EXPECT_NE(text.find(dir.string() + "/"), std::string::npos) << "the file is not named: " << text;
+  EXPECT_NE(text.find("level 'main' (alpha 1, 2 rank(s))"), std::string::npos) << text;
+  for (const auto& p : launch_support::processes_naming(dir)) ADD_FAILURE() << "still running: " << p;
+  expect_listed_snapshots_intact(dir);
+  fs::remove(out);
+  fs::remove(cfile);
 }
