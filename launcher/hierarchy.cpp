@@ -117,10 +117,13 @@ void name_failed_level(const fs::path& run_dir, const std::vector<Member>& membe
 }
 
 // A coupler that went silent (hung, SIGSTOP) is noticed by the levels waiting on it: the first to time out
-// ends first, but the coupler is the run's failure. Its pid goes into the level's message.
+// ends first, but the coupler is the run's failure. Its pid goes into the level's message. Not when the coupler
+// itself heard nothing from a level: then both were cut off from each other (a network partition), and the
+// coupler, which hears every level, knows which one.
 void name_silent_coupler(const fs::path& run_dir, const std::vector<Member>& members, Outcome& r) {
   const std::string prefix = "level '";
   if (r.exit_code == 0 || r.interrupted || r.failed_name.rfind(prefix, 0) != 0) return;
+  if (!read_json(run_dir / "coupling" / "summary.json").value("silent_level", "").empty()) return;
   const std::string level = r.failed_name.substr(prefix.size(), r.failed_name.size() - prefix.size() - 1);
   const std::string why = read_json(run_dir / "levels" / level / "summary.json").value("reason", "");
   if (why.rfind("no message from the coupler", 0) != 0) return;
