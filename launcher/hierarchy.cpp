@@ -99,12 +99,18 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Ou
   io::write_file_atomic(run_dir / "summary.json", s.dump(2) + "\n");
 }
 
+// A process's summary written by this attempt (since `start`): one of an earlier attempt that this one could not
+// replace (a full disk) would name an old failure.
+nlohmann::json summary_since(const fs::path& p, fs::file_time_type start) {
+  std::error_code ec;
+  const auto t = fs::last_write_time(p, ec);
+  return !ec && t >= start ? read_json(p) : nlohmann::json::object();
+}
+
 // A level that went silent (hung, SIGSTOP) or told the coupler it failed (a signal, a full disk) is the run's
 // failure, whichever process ended first: the coupler that stopped the run on its account, or a level it told
 // to stop. Its pid goes into the coupler's message.
-void name_failed_level(const fs::path& run_dir, const std::vector<Member>& members, Outcome& r) {
-  if (r.exit_code == 0 || r.interrupted) return;
-  const auto cpl = read_json(run_dir / "coupling" / "summary.json");
+void name_failed_level(const nlohmann::json& cpl, const std::vector<Member>& members, Outcome& r) {
   std::string level = cpl.value("silent_level", "");
   if (level.empty()) level = cpl.value("failed_level", "");
   const std::string why = cpl.value("error", ""), name = "level '" + level + "'";
@@ -120,15 +126,26 @@ void name_failed_level(const fs::path& run_dir, const std::vector<Member>& membe
 // ends first, but the coupler is the run's failure. Its pid goes into the level's message. Not when the coupler
 // itself heard nothing from a level: then both were cut off from each other (a network partition), and the
 // coupler, which hears every level, knows which one.
-void name_silent_coupler(const fs::path& run_dir, const std::vector<Member>& members, Outcome& r) {
+void name_silent_coupler(const fs::path& run_dir, fs::file_time_type start, const nlohmann::json& cpl,
+                         const std::vector<Member>& members, Outcome& r) {
   const std::string prefix = "level '";
-  if (r.exit_code == 0 || r.interrupted || r.failed_name.rfind(prefix, 0) != 0) return;
-  if (!read_json(run_dir / "coupling" / "summary.json").value("silent_level", "").empty()) return;
+  if (r.failed_name.rfind(prefix, 0) != 0 || !cpl.value("silent_level", "").empty()) return;
   const std::string level = r.failed_name.substr(prefix.size(), r.failed_name.size() - prefix.size() - 1);
-  const std::string why = read_json(run_dir / "levels" / level / "summary.json").value("reason", "");
+  const std::string why = summary_since(run_dir / "levels" / level / "summary.json", start).value("reason", "");
   if (why.rfind("no message from the coupler", 0) != 0) return;
   r.failed = "coupler (pid " + std::to_string(members.front().pid) + ") went silent: " + r.failed_name + ": " + why;
   r.failed_name = "coupler";
+}
+
+// Names the process that failed the attempt begun at `start` by what the processes recorded.
+void name_failure(const fs::path& run_dir, fs::file_time_type start, const std::vector<Member>& members,
+                  Outcome& r) {
+  if (r.exit_code == 0 || r.interrupted) return;
+  const auto cpl = summary_since(run_dir / "coupling" / "summary.json", start);
+  name_failed_level(cpl, members, r);
+  if (r.failed_name == "coupler" && !cpl.value("error", "").empty())  // its reason (it runs --quiet)
+    r.failed += ": " + cpl.value("error", "");
+  name_silent_coupler(run_dir, start, cpl, members, r);
 }
 
 // The coupler's and every level's command line; from a consistent checkpoint when `from` is set.
@@ -225,14 +242,10 @@ int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file
         for (size_t a = 0; a + 1 < m[i].argv.size(); ++a)
           if (m[i].argv[a] == "--coupler") m[i].argv[a + 1] = bound;
     };
+    const auto start = fs::file_time_type::clock::now();
     r = supervise(members, so);
     board.end_line();
-    name_failed_level(run_dir, members, r);
-    if (r.failed_name == "coupler") {  // its reason is in its log and summary (it runs --quiet)
-      const auto why = read_json(run_dir / "coupling" / "summary.json").value("error", "");
-      if (!why.empty()) r.failed += ": " + why;
-    }
-    name_silent_coupler(run_dir, members, r);
+    name_failure(run_dir, start, members, r);
     // A swap continues from the checkpoint the stop wrote; a swapped-in binary that failed is replaced
     // by the previous one, from the same checkpoint. Neither counts as a restart.
     const bool swapping = r.stopped_for_swap && r.failed.empty();
@@ -264,7 +277,14 @@ int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file
                       : "the beginning (no consistent checkpoint yet)");
   }
   swaps.finish(r.exit_code == 0);
-  write_summary(cs, run_dir, r, attempt + 1);
+  try {
+    write_summary(cs, run_dir, r, attempt + 1);
+  } catch (const std::exception& e) {  // a full disk: what failed must still reach the user, by stderr
+    std::fprintf(stderr, "mlcg: cannot write the run's summary: %s\n", e.what());
+    if (!r.failed.empty()) std::fprintf(stderr, "mlcg: %s; every other process was stopped\n", r.failed.c_str());
+    std::fprintf(stderr, "mlcg: once there is room, continue with `mlcg resume %s`\n", run_dir.c_str());
+    return r.exit_code != 0 ? r.exit_code : 1;
+  }
   print_end(run_dir, r);
   return r.exit_code;
 }

@@ -77,8 +77,10 @@ void StatusBoard::update(const std::vector<Member>& members, const std::string& 
     j["checkpoint"] = {{"interval", manifest.value("interval", 0)}, {"sim_time", manifest.value("sim_time", 0.0)}};
   try {
     io::write_file_atomic(run_dir_ / "status.json", j.dump(2) + "\n");
+    write_error_.clear();
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "mlcg: cannot write status.json: %s\n", e.what());
+    if (write_error_ != e.what()) std::fprintf(stderr, "mlcg: cannot write status.json: %s\n", e.what());
+    write_error_ = e.what();
   }
   if (!show_ || !progress.is_object() || force) return;  // forced: the final state, after the line ended
   std::printf("\r\033[K%s | ETA %s", level_progress(progress).c_str(), duration(progress.value("eta_seconds", -1.0)).c_str());

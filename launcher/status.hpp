@@ -27,6 +27,7 @@ class StatusBoard {
   double last_ = -1.0;
   bool line_open_ = false;
   double sim_time_ = 0.0;
+  std::string write_error_;  // the last status.json write error shown (a full disk: said once, not every second)
 };
 
 // `mlcg ps RUN_DIR`: 0, or 1 when RUN_DIR has no status.json.
