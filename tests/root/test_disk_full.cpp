@@ -13,6 +13,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -196,11 +198,65 @@ const std::vector<std::pair<std::string, std::string>> kCheckpointsOnly = {
     {"output_interval = 0.02", "output_interval = 10.0"}};
 }  // namespace
 
-// The disk fills after the consistent set of interval >= 1000 so that half that set's size is left: the next set
-// cannot be written. The level whose checkpoint does not fit is named with the file and the system's reason, no
-// process crashes or is left, the sets the manifest names stay as they were, and once there is room again `mlcg
-// resume` ends with the result of a run on a roomy disk.
-TEST(DiskFull, AConsistentSetThatDoesNotFitKeepsTheLastOneAndTheRunResumesToTheSameResult) {
+namespace {
+// What one fill did to the hierarchy on the tiny disk.
+struct Filled {
+  std::optional<int> code;  // the launcher's exit code (none: it did not end within 2 min)
+  std::string out;          // its output
+  std::map<std::string, size_t> sets;  // the checkpoints folder when the disk filled
+};
+
+// Runs `mlcg ARGS` until the consistent set reaches interval k, then fills the disk until half that set's size is
+// left (`half_set`) or nothing, and waits for the launcher.
+Filled fill_at(const TinyDisk& disk, const fs::path& dir, const std::vector<std::string>& args, uint64_t k,
+               bool half_set, const fs::path& log) {
+  Filled f;
+  const pid_t pid = launch_support::start_mlcg(args, log);
+  launch_support::KillOnExit guard{pid};
+  if (!launch_support::wait_for_checkpoint(dir, k, pid)) {
+    ADD_FAILURE() << slurp(log);
+    return f;
+  }
+  uintmax_t set = 0;
+  const auto m = nlohmann::json::parse(slurp(dir / "checkpoints" / "manifest.json"));
+  for (const auto& e : fs::directory_iterator(dir / "checkpoints" / fs::path(m["coupler"].get<std::string>()).parent_path()))
+    set += e.file_size();
+  fill(disk.dir(), half_set ? set / 2 : 0);
+  f.sets = fingerprint(dir / "checkpoints");
+  f.code = launch_support::wait_exit_within(pid, 120.0);
+  guard.pid = -1;
+  f.out = slurp(log);
+  return f;
+}
+
+// The run failed without a crash, naming the full disk; every file of the sets there when the disk filled, the
+// manifest included, is there unchanged; no process and no temporary file is left.
+void expect_failed_keeping_the_sets(const fs::path& dir, const Filled& f) {
+  ASSERT_TRUE(f.code.has_value()) << f.out;
+  EXPECT_NE(*f.code, 0) << f.out;
+  EXPECT_EQ(f.out.find("signal 11"), std::string::npos) << f.out;
+  EXPECT_NE(f.out.find(": No space left on device"), std::string::npos) << f.out;
+  const auto after = fingerprint(dir / "checkpoints");
+  for (const auto& [file, hash] : f.sets) {
+    ASSERT_TRUE(after.count(file)) << file << " was removed after the disk filled";
+    EXPECT_EQ(after.at(file), hash) << file << " changed after the disk filled";
+  }
+  launch_support::expect_no_process_left(dir);
+  expect_no_temporary_files(dir);
+  std::istringstream lines(f.out);
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind("mlcg: ", 0) == 0 && (line.find("No space left") != std::string::npos ||
+                                         line.find("process was stopped") != std::string::npos))
+      std::printf("%s\n", line.c_str());
+}
+}  // namespace
+
+// The disk fills twice, each time after a consistent set: first so that half that set's size is left (the next
+// set cannot be written: the level whose checkpoint does not fit is named with the file), then to the last byte
+// (every write fails, the summaries' too: the launcher still names what failed). Each time the sets on disk stay
+// as they were, and once there is room again `mlcg resume` continues; the run ends with the result of a run on a
+// roomy disk.
+TEST(DiskFull, ConsistentSetsThatDoNotFitKeepTheLastOneAndTheRunResumesToTheSameResult) {
   TinyDisk disk(64 * 1024);
   if (!disk.skip_reason().empty()) GTEST_SKIP() << disk.skip_reason();
   const fs::path cfile = edited_case("cases/quickstart/mlcg.toml", kCheckpointsOnly, "sets");
@@ -208,33 +264,29 @@ TEST(DiskFull, AConsistentSetThatDoesNotFitKeepsTheLastOneAndTheRunResumesToTheS
   ASSERT_EQ(sh(kBin + "/mlcg run " + cfile.string() + " --out " + ref.string() + " --quiet > " + ref.string() +
                ".out 2>&1"),
             0) << slurp(ref.string() + ".out");
-  const pid_t pid = launch_support::start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, out);
-  launch_support::KillOnExit guard{pid};
-  ASSERT_TRUE(launch_support::wait_for_checkpoint(dir, 1000, pid)) << slurp(out);
-  uintmax_t set = 0;
-  const auto m = nlohmann::json::parse(slurp(dir / "checkpoints" / "manifest.json"));
-  for (const auto& e : fs::directory_iterator(dir / "checkpoints" / fs::path(m["coupler"].get<std::string>()).parent_path()))
-    set += e.file_size();
-  fill(disk.dir(), set / 2);
-  const auto sets = fingerprint(dir / "checkpoints");
-  const auto code = launch_support::wait_exit_within(pid, 120.0);
-  guard.pid = -1;
-  const std::string text = slurp(out);
-  ASSERT_TRUE(code.has_value()) << text;
-  EXPECT_NE(*code, 0) << text;
-  EXPECT_EQ(text.find("signal 11"), std::string::npos) << text;
-  EXPECT_NE(text.find("mlcg: level '"), std::string::npos) << "no level named: " << text;
-  EXPECT_NE(text.find(": No space left on device"), std::string::npos) << text;
-  EXPECT_NE(text.find((dir / "checkpoints" / "i").string()), std::string::npos) << "the file is not named: " << text;
-  // Every file of the sets there when the disk filled, the manifest included, is there unchanged.
-  const auto after = fingerprint(dir / "checkpoints");
-  for (const auto& [file, hash] : sets) {
-    ASSERT_TRUE(after.count(file)) << file << " was removed after the disk filled";
-    EXPECT_EQ(after.at(file), hash) << file << " changed after the disk filled";
-  }
-  launch_support::expect_no_process_left(dir);
-  expect_no_temporary_files(dir);
+  Filled f = fill_at(disk, dir, {"run", cfile.string(), "--out", dir.string(), "--quiet"}, 1000, true, out);
+  expect_failed_keeping_the_sets(dir, f);
+  EXPECT_NE(f.out.find("mlcg: level '"), std::string::npos) << "no level named: " << f.out;
+  const std::string named = "failed: cannot write the run's output: write failed for '" + (dir / "checkpoints" / "i").string();
+  const size_t at = f.out.find(named);
+  ASSERT_NE(at, std::string::npos) << "the checkpoint is not named: " << f.out;
+  const std::string first = f.out.substr(at, f.out.find('\'', at + named.size()) - at);  // that set's file
   fs::remove(disk.dir() / "filler");
+
+  f = fill_at(disk, dir, {"resume", dir.string(), "--quiet"}, 2000, false, out);
+  expect_failed_keeping_the_sets(dir, f);
+  // Nothing can record which level failed now: the launcher names the first process to end (often the coupler,
+  // which that level's failure stopped); the level's own message is on stderr.
+  EXPECT_TRUE(f.out.find("mlcg: level '") != std::string::npos || f.out.find("mlcg: coupler (pid") != std::string::npos)
+      << "nothing named: " << f.out;
+  EXPECT_NE(f.out.find("failed: cannot write the run's output: write failed for '" + dir.string()), std::string::npos)
+      << "no level said what it could not write: " << f.out;
+  if (fs::exists(dir / "summary.json")) {  // none when not even the first attempt's fitted
+    EXPECT_TRUE(nlohmann::json::parse(slurp(dir / "summary.json"), nullptr, false).is_object()) << "a summary cut short";
+  }
+  EXPECT_EQ(f.out.find(first), std::string::npos) << "the earlier failure named again: " << f.out;
+  fs::remove(disk.dir() / "filler");
+
   ASSERT_EQ(sh(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + out.string() + " 2>&1"), 0) << slurp(out);
   launch_support::expect_same_result(dir, ref);
   launch_support::remove_run(ref);
