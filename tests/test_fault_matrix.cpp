@@ -187,8 +187,9 @@ TEST(TwoRankLevelFaults, KillAndStopOfARankAndSigtermOfMpirunAreNamedAndNoRankIs
 // A consistent set whose level checkpoint is replaced, after an interrupt, by one of another set (as another run's
 // would be: its interval is not the set's) or of another case (a level checkpoint of the single-level quickstart):
 // the launcher's file checks pass (both are whole MLCG level checkpoints), so the processes start, and the coupler
-// (interval) or the level (dt and alpha, then the scene) refuses before anything is simulated. The launcher names the level, no process
-// is left, the checkpoints are unchanged, and with the right file back the run resumes to the uninterrupted result.
+// (interval) or the level (dt and alpha, then the scene) refuses before anything is simulated. The launcher names
+// the level, no process is left, the checkpoints are unchanged, and with the right file back the run resumes to the
+// uninterrupted result.
 TEST(CheckpointFaults, ALevelCheckpointOfAnotherSetOrCaseIsRefusedAndTheSetStaysIntact) {
   const Chain c("cpf", 1);
   ASSERT_FALSE(HasFailure());
@@ -202,7 +203,8 @@ TEST(CheckpointFaults, ALevelCheckpointOfAnotherSetOrCaseIsRefusedAndTheSetStays
   const auto m = read_json(dir / "checkpoints" / "manifest.json");
   ASSERT_TRUE(m.contains("previous")) << m.dump();
   const fs::path sets = dir / "checkpoints";
-  const fs::path fine = sets / m["levels"]["fine"].get<std::string>(), coarse = sets / m["levels"]["coarse"].get<std::string>();
+  const fs::path fine = sets / m["levels"]["fine"].get<std::string>();
+  const fs::path coarse = sets / m["levels"]["coarse"].get<std::string>();
   const fs::path foreign = dir.string() + ".foreign.h5";
   {
     mlcg::Level level(mlcg::test::load("quickstart/case.toml"), mlcg::test::quiet());

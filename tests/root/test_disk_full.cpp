@@ -194,7 +194,8 @@ void expect_no_temporary_files(const fs::path& dir) {
 
 // The quickstart hierarchy writing nothing big but its consistent checkpoints (no snapshots, no grids).
 const std::vector<std::pair<std::string, std::string>> kCheckpointsOnly = {
-    {"snapshot_interval = 0.05", "snapshot_interval = 10.0"}, {"[[grids]]\nname = \"hopper\"", "[[grids]]\nname = \"unused\""},
+    {"snapshot_interval = 0.05", "snapshot_interval = 10.0"},
+    {"[[grids]]\nname = \"hopper\"", "[[grids]]\nname = \"unused\""},
     {"output_interval = 0.02", "output_interval = 10.0"}};
 }  // namespace
 
@@ -267,7 +268,8 @@ TEST(DiskFull, ConsistentSetsThatDoNotFitKeepTheLastOneAndTheRunResumesToTheSame
   Filled f = fill_at(disk, dir, {"run", cfile.string(), "--out", dir.string(), "--quiet"}, 1000, true, out);
   expect_failed_keeping_the_sets(dir, f);
   EXPECT_NE(f.out.find("mlcg: level '"), std::string::npos) << "no level named: " << f.out;
-  const std::string named = "failed: cannot write the run's output: write failed for '" + (dir / "checkpoints" / "i").string();
+  const std::string named =
+      "failed: cannot write the run's output: write failed for '" + (dir / "checkpoints" / "i").string();
   const size_t at = f.out.find(named);
   ASSERT_NE(at, std::string::npos) << "the checkpoint is not named: " << f.out;
   const std::string first = f.out.substr(at, f.out.find('\'', at + named.size()) - at);  // that set's file
@@ -294,10 +296,11 @@ TEST(DiskFull, ConsistentSetsThatDoNotFitKeepTheLastOneAndTheRunResumesToTheSame
   fs::remove(cfile);
 }
 
-// A single level through `mlcg run`, checkpointing every 0.01 s, on a disk filled to the last byte once its
-// first checkpoint and summary exist (at t = 0.01 s of 0.1 s): the next checkpoint cannot be written, nor can the summary after it. The
-// level and the launcher say so and end with code 3; every file written before stays whole (the summary as it
-// was, not half-written); and that checkpoint, continued on a roomy disk, ends as an uninterrupted run does.
+// A single level through `mlcg run`, checkpointing every 0.01 s, on a disk filled to the last byte once its first
+// checkpoint and summary exist (at t = 0.01 s of 0.1 s): the next checkpoint cannot be written, nor can the summary
+// after it. The level and the launcher say so and end with code 3; every file written before stays whole (the
+// summary as it was, not half-written); and that checkpoint, continued on a roomy disk, ends as an uninterrupted
+// run does.
 TEST(DiskFull, ACheckpointAndTheSummaryThatDoNotFitLeaveTheLastOnesWholeAndRestartable) {
   TinyDisk disk(64 * 1024);
   if (!disk.skip_reason().empty()) GTEST_SKIP() << disk.skip_reason();
