@@ -145,7 +145,7 @@ void Comm::exchange(const std::vector<int>& peers, const std::vector<std::vector
 
 void ByteReader::copy(void* dst, size_t n) {
   if (p_ + n > end_) throw std::runtime_error("ByteReader: buffer ends early (corrupt exchange)");
-  std::memcpy(dst, p_, n);
+  if (n > 0) std::memcpy(dst, p_, n);  // an empty array's data() may be null
   p_ += n;
 }
 
