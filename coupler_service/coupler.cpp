@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <fmt/format.h>
+
 #include "core/time_steps.hpp"
 
 namespace mlcg::coupling {
@@ -87,6 +89,7 @@ void Coupler::check(const bus::GridStats& g, const Region& r, bool coarse, size_
   bad("cell_volume_fraction", g.cell_volume_fraction_size(), nc);
   bad("cell_velocity", g.cell_velocity_size(), 3 * nc);
   bad("cell_max_speed", g.cell_max_speed_size(), nc);
+  check_values(g, r, level);
   if (coarse) {
     bad("face_mass", g.face_mass_size(), nf);
     bad("face_momentum", g.face_momentum_size(), 3 * nf);
@@ -95,6 +98,45 @@ void Coupler::check(const bus::GridStats& g, const Region& r, bool coarse, size_
   } else {
     if (g.occupants_size() % 4 != 0) bad("occupants", g.occupants_size(), g.occupants_size() / 4 * 4);
     if (g.face_returned_mass_size() != 0) bad("face_returned_mass", g.face_returned_mass_size(), nf);
+  }
+}
+
+void Coupler::check_values(const bus::GridStats& g, const Region& r, size_t level) const {
+  const auto refuse = [&](const std::string& what) {
+    throw std::invalid_argument(
+        fmt::format("coupler: level '{}' region {}: {}", cfg_.levels[level].name, g.grid(), what));
+  };
+  const auto finite = [&](const char* field, const google::protobuf::RepeatedField<double>& a) {
+    for (int i = 0; i < a.size(); ++i)
+      if (!std::isfinite(a[i])) refuse(fmt::format("{}[{}] is {}; statistics are finite numbers", field, i, a[i]));
+  };
+  finite("face_mass", g.face_mass());
+  finite("face_momentum", g.face_momentum());
+  finite("face_moment", g.face_moment());
+  finite("cell_stress", g.cell_stress());
+  finite("cell_volume_fraction", g.cell_volume_fraction());
+  finite("cell_velocity", g.cell_velocity());
+  finite("cell_max_speed", g.cell_max_speed());
+  finite("occupants", g.occupants());
+  finite("face_returned_mass", g.face_returned_mass());
+  if (!std::isfinite(g.mass_in_region()) || !std::isfinite(g.mass_leaving()))
+    refuse(fmt::format("mass_in_region {} kg, mass_leaving {} kg; statistics are finite numbers", g.mass_in_region(),
+                       g.mass_leaving()));
+  for (int i = 0; i < g.face_histogram_size(); ++i)
+    if (g.face_histogram(i) > kMaxCrossings || g.face_histogram(i) < -kMaxCrossings)
+      refuse(fmt::format("face_histogram[{}] counts {} crossings in one interval; at most {} either way", i,
+                         g.face_histogram(i), kMaxCrossings));
+  // The planner's overlap test hashes the occupants: each must be a fine particle at the region.
+  const double h = r.geo.cell_size();
+  const Vec3 lo = r.geo.box_lo() - Vec3{h, h, h}, hi = r.geo.box_hi() + Vec3{h, h, h};
+  for (int i = 0; i + 3 < g.occupants_size(); i += 4) {
+    const Vec3 x{g.occupants(i), g.occupants(i + 1), g.occupants(i + 2)};
+    const double radius = g.occupants(i + 3);
+    const bool near = x.x >= lo.x && x.x <= hi.x && x.y >= lo.y && x.y <= hi.y && x.z >= lo.z && x.z <= hi.z;
+    if (!near || !(radius > 0.0 && radius <= h))
+      refuse(fmt::format("occupant {} at ({}, {}, {}) m, radius {} m; occupants are particles within one cell ({} m) "
+                         "of the region, of a radius > 0 and up to the cell size",
+                         i / 4, x.x, x.y, x.z, radius, h));
   }
 }
 
