@@ -219,7 +219,9 @@ void replace(const fs::path& f, const std::string& name, const std::vector<T>& v
   const hsize_t dims[2] = {values.size() / cols, cols};
   const hid_t space = H5Screate_simple(cols == 1 ? 1 : 2, dims, nullptr);
   const hid_t ds = H5Dcreate2(file, name.c_str(), native<T>(), space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  if (!values.empty()) ASSERT_GE(H5Dwrite(ds, native<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), 0);
+  if (!values.empty()) {
+    ASSERT_GE(H5Dwrite(ds, native<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), 0);
+  }
   H5Dclose(ds);
   H5Sclose(space);
   H5Fclose(file);
