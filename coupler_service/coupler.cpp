@@ -126,18 +126,14 @@ void Coupler::check_values(const bus::GridStats& g, const Region& r, size_t leve
     if (g.face_histogram(i) > kMaxCrossings || g.face_histogram(i) < -kMaxCrossings)
       refuse(fmt::format("face_histogram[{}] counts {} crossings in one interval; at most {} either way", i,
                          g.face_histogram(i), kMaxCrossings));
-  // The planner's overlap test hashes the occupants: each must be a fine particle at the region.
+  // The planner's overlap test searches the hash cells within the largest occupant radius: a radius beyond
+  // a coupling cell is no fine particle, and a huge one would make that search endless.
   const double h = r.geo.cell_size();
-  const Vec3 lo = r.geo.box_lo() - Vec3{h, h, h}, hi = r.geo.box_hi() + Vec3{h, h, h};
-  for (int i = 0; i + 3 < g.occupants_size(); i += 4) {
-    const Vec3 x{g.occupants(i), g.occupants(i + 1), g.occupants(i + 2)};
-    const double radius = g.occupants(i + 3);
-    const bool near = x.x >= lo.x && x.x <= hi.x && x.y >= lo.y && x.y <= hi.y && x.z >= lo.z && x.z <= hi.z;
-    if (!near || !(radius > 0.0 && radius <= h))
-      refuse(fmt::format("occupant {} at ({}, {}, {}) m, radius {} m; occupants are particles within one cell ({} m) "
-                         "of the region, of a radius > 0 and up to the cell size",
-                         i / 4, x.x, x.y, x.z, radius, h));
-  }
+  for (int i = 3; i < g.occupants_size(); i += 4)
+    if (!(g.occupants(i) > 0.0 && g.occupants(i) <= h))
+      refuse(fmt::format("occupant {} has radius {} m; occupants are fine particles, of a radius > 0 and up to the "
+                         "cell size ({} m)",
+                         i / 4, g.occupants(i), h));
 }
 
 std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vector<bus::IntervalStats>& stats) {
