@@ -230,7 +230,7 @@ int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file
                        restarts < cs.launcher.restart_on_failure;
     const bool again = swapping || reverted || retry;
     board.update(members, again ? "restarting" : r.exit_code == 0 ? "completed" : r.interrupted ? "interrupted" : "failed",
-                 attempt, true);
+                 attempt, true, r.failed);
     if (!again) break;
     try {
       from = read_manifest(run_dir);

@@ -374,6 +374,13 @@ TEST(HungLevel, AStoppedFineLevelIsNamedWithinTheTimeoutAndNoProcessIsLeft) {
   EXPECT_EQ(s["status"], "failed");
   EXPECT_EQ(s["reason"].get<std::string>().rfind(named, 0), 0u) << s["reason"];
   EXPECT_EQ(s["coupling"]["silent_level"], "fine");
+  // `mlcg ps` on the ended run tells why, from status.json.
+  const auto st = read_json(dir / "status.json");
+  EXPECT_EQ(st["state"], "failed");
+  EXPECT_EQ(st.value("reason", "").rfind(named, 0), 0u) << st;
+  ASSERT_EQ(run(kBin + "/mlcg ps " + dir.string() + " > " + dir.string() + ".ps 2>&1"), 0);
+  EXPECT_NE(slurp(dir.string() + ".ps").find("reason: " + named), std::string::npos) << slurp(dir.string() + ".ps");
+  fs::remove(dir.string() + ".ps");
   expect_no_process_left(dir);
   fs::remove_all(dir);
   for (const auto& f : {dir.string() + ".out", cfile.string()}) fs::remove(f);
