@@ -178,8 +178,9 @@ void Level::coupling_begin_step() {
     if (c.grids[l].role() == coupling::Role::Fine && of[l] && of[l]->insert_size() > 0) {
       // Every rank reads the same list: the ids agree, each rank keeps what it owns.
       std::vector<ParticleInit> list;
+      const int64_t first_id = next_id_;
       try {
-        list = coupling::GridLink::parse_inserts(*of[l], c.material, c.density, next_id_);
+        list = coupling::GridLink::parse_inserts(*of[l], c.material, c.density, first_id);
       } catch (const std::invalid_argument& e) {
         throw CouplingStop(e.what());
       }
@@ -195,7 +196,9 @@ void Level::coupling_begin_step() {
       c.inserted += count;
       c.worst_overlap = std::max(c.worst_overlap, insert_overlap(p_, first_new, 2.0 * std::max(r_max_, r_big)));
       check_inserted_walls(c, c.grids[l].geometry(), first_new);
-      next_id_ += static_cast<int64_t>(count);
+      // Not `+= count`: add_particle already raised next_id_, on the owning rank only. The ranks must agree on
+      // ids (contact histories are keyed by them).
+      next_id_ = first_id + static_cast<int64_t>(count);
       explicit_count_ += static_cast<int64_t>(count);  // requested and inserted, like the case's own particles
       explicit_mass_ += mass;
       rebuild_pending_ = true;

@@ -68,6 +68,7 @@ void Level::setup() {
   }
   log_ = std::make_shared<spdlog::logger>("dem_level", sinks.begin(), sinks.end());
   log_->set_pattern("[%H:%M:%S] %v");
+  log_->flush_on(spdlog::level::info);  // `tail -f log.txt` shows each line as it happens (they are seconds apart)
   if (comm_.rank() != 0) log_->set_level(spdlog::level::err);
 
   lvl_ = cs_.levels.front();
