@@ -1,7 +1,8 @@
 // Fuzz target: the `[initial] file` of a case (an HDF5 particle snapshot), read as dem_level reads it
 // when it sets up the quickstart hopper with it, then two steps run, so that particles the checks let
-// through are used. Seeds: snapshots of the quickstart hopper while it fills (fuzz_seeds). Bad input must
-// come back as a std::runtime_error naming the file.
+// through are used. The input is the snapshot's HDF5 content (fuzz_support.hpp), written by H5Writer.
+// Seeds: snapshots of the quickstart hopper while it fills (fuzz_seeds). Bad input must come back as a
+// std::runtime_error naming the file.
 #include <cstddef>
 #include <cstdint>
 
@@ -14,7 +15,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     c.initial = mlcg::config::InitialSpec{file.string(), "beads", {"cases/quickstart/case.toml", 1}};
     return c;
   }();
-  mlcg::fuzz::write_file(file, data, size);
+  mlcg::fuzz::write_h5_content(file, data, size);
   mlcg::fuzz::run_level(cs);
   return 0;
 }

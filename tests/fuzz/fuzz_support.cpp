@@ -4,10 +4,14 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <stdexcept>
+#include <string_view>
+#include <vector>
 
 #include "config/case_parser.hpp"
+#include "io/h5.hpp"
 #include "level/level.hpp"
 
 namespace fs = std::filesystem;
@@ -20,7 +24,103 @@ void remove_scratch() {
   fs::remove_all(scratch(), ec);
 }
 
+// Reads little-endian unsigned integers and byte runs off an input; `ok` turns false when it ends early.
+struct Cursor {
+  const uint8_t* p;
+  const uint8_t* end;
+  bool ok = true;
+  uint64_t uint(int bytes) {
+    uint64_t v = 0;
+    if (end - p < bytes) ok = false;
+    for (int i = 0; ok && i < bytes; ++i) v |= uint64_t{*p++} << (8 * i);
+    return v;
+  }
+  std::string_view run(uint64_t n) {
+    if (static_cast<uint64_t>(end - p) < n) ok = false;
+    if (!ok) return {};
+    const std::string_view r(reinterpret_cast<const char*>(p), n);
+    p += n;
+    return r;
+  }
+};
+
+template <class T>
+std::vector<T> values(std::string_view bytes) {
+  std::vector<T> v(bytes.size() / sizeof(T));
+  if (!v.empty()) std::memcpy(v.data(), bytes.data(), v.size() * sizeof(T));
+  return v;
+}
+
+template <class T>
+void write_dataset(io::H5Writer& w, const std::string& name, std::string_view bytes, uint8_t columns) {
+  const auto v = values<T>(bytes);
+  if (columns > 1 && v.size() % columns == 0)
+    w.write_shaped(name, v.data(), {v.size() / columns, columns});
+  else
+    w.write(name, v);
+}
+
+void write_attribute(io::H5Writer& w, const std::string& name, H5Type type, std::string_view bytes) {
+  const size_t at = name.find('@');
+  if (at == std::string::npos) return;
+  const std::string obj = name.substr(0, at), attr = name.substr(at + 1);
+  const auto first = [&](auto zero) {
+    const auto v = values<decltype(zero)>(bytes);
+    return v.empty() ? zero : v.front();
+  };
+  switch (type) {
+    case H5Type::F64: w.set_attr(obj, attr, first(0.0)); break;
+    case H5Type::U64: w.set_attr(obj, attr, first(uint64_t{0})); break;
+    case H5Type::String: w.set_attr(obj, attr, bytes); break;
+    default: w.set_attr(obj, attr, first(int64_t{0})); break;
+  }
+}
+
+void write_entry(io::H5Writer& w, H5Kind kind, H5Type type, uint8_t columns, const std::string& name,
+                 std::string_view bytes) {
+  if (kind == H5Kind::Group) return w.create_group(name);
+  if (kind == H5Kind::Attribute) return write_attribute(w, name, type, bytes);
+  switch (type) {
+    case H5Type::F64: return write_dataset<double>(w, name, bytes, columns);
+    case H5Type::I64: return write_dataset<int64_t>(w, name, bytes, columns);
+    case H5Type::I32: return write_dataset<int32_t>(w, name, bytes, columns);
+    case H5Type::U64: return write_dataset<uint64_t>(w, name, bytes, columns);
+    default: return write_dataset<uint8_t>(w, name, bytes, columns);
+  }
+}
+
 }  // namespace
+
+void write_h5_content(const fs::path& file, const uint8_t* data, size_t size) {
+  io::H5Writer w(file);
+  Cursor c{data, data + size};
+  for (;;) {
+    const auto kind = c.uint(1), type = c.uint(1), columns = c.uint(1);
+    const std::string name(c.run(c.uint(2)));
+    const std::string_view bytes = c.run(c.uint(4));
+    if (!c.ok) break;
+    try {
+      write_entry(w, static_cast<H5Kind>(kind % 3), static_cast<H5Type>(type % 6), static_cast<uint8_t>(columns), name,
+                  bytes);
+    } catch (const std::runtime_error&) {  // a name or shape H5Writer refuses: the entry is left out
+    }
+  }
+  w.commit();
+}
+
+void append_h5_entry(std::string& content, H5Kind kind, H5Type type, uint8_t columns, const std::string& name,
+                     std::string_view bytes) {
+  const auto put = [&](uint64_t v, int n) {
+    for (int i = 0; i < n; ++i) content.push_back(static_cast<char>((v >> (8 * i)) & 0xff));
+  };
+  put(static_cast<uint8_t>(kind), 1);
+  put(static_cast<uint8_t>(type), 1);
+  put(columns, 1);
+  put(name.size(), 2);
+  content += name;
+  put(bytes.size(), 4);
+  content += bytes;
+}
 
 fs::path source(const std::string& relative) { return fs::path(MLCG_SOURCE_DIR) / relative; }
 

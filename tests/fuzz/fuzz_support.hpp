@@ -27,6 +27,19 @@ std::filesystem::path scratch(const std::string& sub = "");
 void write_file(const std::filesystem::path& path, const uint8_t* data, size_t size);
 void write_file(const std::filesystem::path& path, std::string_view text);
 
+// HDF5 content: the HDF5 targets fuzz what a file says (which datasets and attributes, their names, types,
+// shapes and values), written by MLCG's own H5Writer, not libhdf5's decoding of damaged bytes (Debian's
+// libhdf5 1.10.8 allocates and zeroes gigabytes for some damaged headers before it refuses the file, which
+// no caller can prevent). Entries follow each other until the input ends:
+//   u8 kind (H5Kind, modulo 3), u8 type (H5Type, modulo 6), u8 columns (a dataset of n x columns when above
+//   1), u16 name length, name ("group/dataset", "group" or "object@attribute"), u32 byte count, the bytes.
+// An entry cut short ends the content; one H5Writer refuses is left out.
+enum class H5Kind : uint8_t { Dataset, Attribute, Group };
+enum class H5Type : uint8_t { F64, I64, I32, U64, U8, String };
+void write_h5_content(const std::filesystem::path& file, const uint8_t* data, size_t size);
+void append_h5_entry(std::string& content, H5Kind kind, H5Type type, uint8_t columns, const std::string& name,
+                     std::string_view bytes);
+
 // Sets up a level of `cs` (continuing from `restart` when given) and runs two steps, as dem_level would;
 // a std::runtime_error (the refusal of bad input) ends it quietly.
 void run_level(const config::CaseSpec& cs, const std::filesystem::path& restart = {});
