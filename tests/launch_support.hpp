@@ -1,6 +1,7 @@
 #pragma once
 // Starting the real programs from a test: mlcg and dem_level in the background, their exit, a run's
-// checkpoints. Shared by the launcher tests (test_launcher) and the fault tests (test_faults).
+// checkpoints, the faults a test applies. Shared by the launcher tests (test_launcher) and the fault tests
+// (test_faults, test_fault_matrix).
 #include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -13,6 +14,7 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <string>
 #include <thread>
@@ -35,6 +37,95 @@ inline int run(const std::string& cmd) {
 inline std::string slurp(const fs::path& p) {
   std::ifstream in(p);
   return {(std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()};
+}
+
+// A path in the temporary folder for this test process: mlcg_<tag>_<pid>.
+inline fs::path temp(const std::string& tag) {
+  return fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()));
+}
+
+// Every regular file under dir by its path, with a hash of its bytes: what "unchanged" means for a run folder.
+inline std::map<std::string, size_t> fingerprint(const fs::path& dir) {
+  std::map<std::string, size_t> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) out[fs::relative(e.path(), dir).string()] = std::hash<std::string>{}(slurp(e.path()));
+  return out;
+}
+
+// The process runs (a zombie waiting for its reaper, or no process, counts as ended).
+inline bool running(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat;
+  std::getline(in, stat);
+  const auto close = stat.rfind(')');
+  return close != std::string::npos && close + 2 < stat.size() && stat[close + 2] != 'Z';
+}
+
+// Kills and reaps a child that a failed assertion would leave running.
+struct KillOnExit {
+  pid_t pid;
+  ~KillOnExit() {
+    if (pid <= 0) return;
+    kill(pid, SIGKILL);
+    waitpid(pid, nullptr, 0);
+  }
+};
+
+// Wakes and kills a process the test stopped, should the run have left it.
+struct ContinueOnExit {
+  pid_t pid;
+  ~ContinueOnExit() {
+    kill(pid, SIGCONT);
+    if (running(pid)) kill(pid, SIGKILL);
+  }
+};
+
+// The quickstart hierarchy with `[coupling] timeout` set; the case file's path.
+inline fs::path quickstart_with_timeout(double timeout, const std::string& tag) {
+  std::string text = slurp(kSrc + "/cases/quickstart/mlcg.toml");
+  const std::string from = "[coupling]                 # interval automatic: 1.92e-4 s\n";
+  EXPECT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "[coupling]\ntimeout = " + std::to_string(timeout) + "\n");
+  const fs::path c = temp(tag).string() + ".toml";
+  std::ofstream(c) << text;
+  return c;
+}
+
+// `mlcg run` of a case in the source tree (`path`) to its end, into a new temporary folder named by `tag`.
+inline fs::path run_hierarchy_case(const std::string& path, const std::string& tag) {
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/" + path + " --out " + dir.string() + " --quiet > " + dir.string() +
+                ".out 2>&1"),
+            0)
+      << "see " << dir.string() << ".out";
+  return dir;
+}
+
+// Removes a run folder and the launcher output beside it.
+inline void remove_run(const fs::path& dir) {
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".out");
+}
+
+// A hierarchy run that must give `ref`'s result to the last digit (a run depends on the seed only): the per-face
+// totals, the per-interval coupling log and the fine level's mass balance.
+inline void expect_same_result(const fs::path& dir, const fs::path& ref) {
+  for (const char* f : {"faces_region0.csv", "region0.csv"})
+    EXPECT_EQ(slurp(dir / "coupling" / f), slurp(ref / "coupling" / f)) << f << " differs from the reference run's";
+  EXPECT_EQ(run_checks::read_json(dir / "levels" / "fine" / "summary.json")["mass_balance"],
+            run_checks::read_json(ref / "levels" / "fine" / "summary.json")["mass_balance"]);
+}
+
+// `mlcg resume` of the run in `dir` (output appended to dir.out) completes, checked by check_region, with the
+// result of `ref`, a run of the same case that nothing interrupted.
+inline void expect_resume_completes_as(const fs::path& dir, const fs::path& ref) {
+  ASSERT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
+      << slurp(dir.string() + ".out");
+  const auto s = run_checks::read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  run_checks::check_region(dir, s, 0, "fine");
+  expect_same_result(dir, ref);
 }
 
 // Starts argv in the background (output to `log`); returns its pid.

@@ -8,11 +8,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "io/h5.hpp"
 
 namespace run_checks {
 namespace fs = std::filesystem;
@@ -47,6 +50,40 @@ inline double first_event(const nlohmann::json& summary) {
   return t;
 }
 
+// A level's mass balance as the README defines it (requested = inserted + pending + failed, inserted = present +
+// removed, removed split by exit), each count against one the level keeps apart from the balance: present is the
+// number of particles in its final checkpoint, their mass the sum of theirs; inserted is the number of ids it
+// issued (every particle, placed or received, takes the next one), and those ids still present are distinct.
+inline void check_balance(const fs::path& level_dir, const nlohmann::json& b) {
+  const auto& by = b["removed_by"];
+  int64_t removed = 0;
+  double removed_mass = 0.0;
+  for (const char* exit : {"outlet", "boundary_surface", "wall"}) {
+    removed += by[exit]["count"].get<int64_t>();
+    removed_mass += by[exit]["mass_kg"].get<double>();
+  }
+  const int64_t inserted = b["inserted"].get<int64_t>(), present = b["present"].get<int64_t>();
+  EXPECT_EQ(b["removed"].get<int64_t>(), removed) << "removed is not the sum of removed_by";
+  EXPECT_NEAR(b["removed_mass_kg"].get<double>(), removed_mass, 1e-12 * removed_mass);
+  EXPECT_EQ(inserted, present + removed);
+  EXPECT_EQ(b["requested"].get<int64_t>(),
+            inserted + b["pending"].get<int64_t>() + b["failed_to_place"].get<int64_t>());
+
+  const mlcg::io::H5Reader cp(level_dir / "checkpoint.h5");
+  const auto ids = cp.read<int64_t>("particles/id");
+  const auto mass = cp.read<double>("particles/mass");
+  EXPECT_EQ(static_cast<int64_t>(ids.size()), present) << "present is not the final checkpoint's particle count";
+  double m = 0.0;
+  for (const double x : mass) m += x;
+  EXPECT_NEAR(b["present_mass_kg"].get<double>(), m, 1e-9 * m);
+  EXPECT_EQ(cp.attr_int64("/", "next_id"), inserted) << "inserted is not the number of particle ids issued";
+  std::set<int64_t> distinct(ids.begin(), ids.end());
+  EXPECT_EQ(distinct.size(), ids.size()) << "a particle id is present twice";
+  if (!ids.empty()) {
+    EXPECT_LT(*distinct.rbegin(), inserted) << "a present particle has an id never issued";
+  }
+}
+
 // Checks region r of a finished hierarchy run whose fine level is `fine`, each quantity against an
 // independent measurement of it (issue 11, item 8):
 // - per interval while nothing can leave downward (before the first event), the coarse level's mass in
@@ -54,7 +91,7 @@ inline double first_event(const nlohmann::json& summary) {
 //   boundary faces (counted at the faces); the fine level's equals what it was sent less what it handed
 //   back;
 // - the fine level inserted exactly what the coupler placed (its own count and mass against the
-//   coupler's ledger) and its particles are all accounted for: inserted = present + removed by exit;
+//   coupler's ledger) and its particles are all accounted for (check_balance);
 // - what the fine level removed through the boundary surface equals what the coupler was handed back;
 // - no inserted particle overlaps another by more than 1 % of a diameter, none overlaps a wall, none
 //   lies outside the walls.
@@ -72,9 +109,7 @@ inline double check_region(const fs::path& dir, const nlohmann::json& s, int r, 
   const auto fine = read_json(dir / "levels" / fine_name / "summary.json");
   const auto& b = fine["mass_balance"];
   const auto& by = b["removed_by"];
-  EXPECT_EQ(b["inserted"].get<int64_t>(), b["present"].get<int64_t>() + by["outlet"]["count"].get<int64_t>() +
-                                              by["boundary_surface"]["count"].get<int64_t>() +
-                                              by["wall"]["count"].get<int64_t>() + b["failed_to_place"].get<int64_t>());
+  check_balance(dir / "levels" / fine_name, b);
   EXPECT_EQ(by["wall"]["count"].get<int64_t>(), 0) << "fine particles left the domain through or over a wall";
   EXPECT_NEAR(b["inserted_mass_kg"].get<double>(), inserted, 1e-12 * inserted);
   EXPECT_EQ(b["inserted"].get<int64_t>(), s["coupling"]["regions"][r]["inserted_particles"].get<int64_t>());

@@ -5,6 +5,7 @@
 // that is not loopback is refused without keys; key files are private.
 #include <gtest/gtest.h>
 
+#include <signal.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -13,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "bus/channel.hpp"
@@ -129,6 +131,54 @@ TEST(Curve, AnIssuedKeySpeaksOnlyForItsOwner) {
   ASSERT_TRUE(in);
   EXPECT_FALSE(in->ok()) << "a level registered with another level's key";
   EXPECT_EQ(in->error, "the CURVE key issued to 'coarse' was used by 'fine'");
+}
+
+// The same through the real coupler_service with the run's key files: the coupler answers the impostor with
+// its refusal, names both levels in coupler.log, and does not register 'fine'.
+TEST(Curve, CouplerServiceRefusesAnotherLevelsKeyAndLogsTheRefusal) {
+  const fs::path d = temp_dir("owner");
+  const curve::KeyPair server = curve::generate(), coarse = curve::generate();
+  curve::write_key_file(d / "server.key", server);
+  curve::write_client_list(d / "clients.pub", {{"coarse", coarse.public_key}, {"fine", curve::generate().public_key}});
+  const pid_t coupler = fork();
+  if (coupler == 0) {
+    const std::string out = (d / "out.txt").string();
+    if (!freopen(out.c_str(), "w", stderr)) _exit(126);
+    execl((std::string(MLCG_BIN_DIR) + "/coupler_service").c_str(), "coupler_service",
+          (std::string(MLCG_SOURCE_DIR) + "/cases/quickstart/mlcg.toml").c_str(), "--quiet", "--out",
+          (d / "run").c_str(), "--endpoint", "tcp://127.0.0.1:*", "--endpoint-file", (d / "endpoint").c_str(),
+          "--curve-server-key", (d / "server.key").c_str(), "--curve-clients", (d / "clients.pub").c_str(),
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  std::string endpoint;
+  for (int i = 0; i < 300 && endpoint.empty(); ++i) {  // up to 30 s on a loaded machine
+    std::ifstream(d / "endpoint") >> endpoint;
+    if (endpoint.empty()) std::this_thread::sleep_for(milliseconds(100));
+  }
+  std::optional<Incoming> back;
+  if (!endpoint.empty()) {
+    zmq::context_t cctx;
+    const curve::SocketKeys ck{coarse, server.public_key};
+    Channel dealer(cctx, Channel::Role::Dealer, endpoint, "fine", kDefaultMaxBytes, &ck);  // coarse's key
+    dealer.socket().set(zmq::sockopt::linger, 0);
+    dealer.send(hello("fine"));
+    back = dealer.receive(milliseconds(10000));
+  }
+  kill(coupler, SIGTERM);  // it would wait for the real levels until its timeout
+  int status = 0;
+  waitpid(coupler, &status, 0);
+  ASSERT_FALSE(endpoint.empty()) << "coupler_service did not bind";
+  ASSERT_TRUE(back) << "no answer from the coupler";
+  ASSERT_TRUE(back->ok()) << back->error;
+  ASSERT_TRUE(back->env.has_refused()) << "the coupler did not refuse the registration";
+  EXPECT_EQ(back->env.refused().reason(), "the CURVE key issued to 'coarse' was used by 'fine'");
+  std::ifstream in(d / "run" / "coupler.log");
+  const std::string log((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(log.find("refused a message from 'fine': the CURVE key issued to 'coarse' was used by 'fine'"),
+            std::string::npos) << log;
+  EXPECT_EQ(log.find("level 'fine' registered"), std::string::npos) << log;
+  fs::remove_all(d);
 }
 
 TEST(Curve, ClientWithoutKeysCannotRegisterAndIsLogged) {

@@ -10,18 +10,25 @@
 #include <sys/file.h>
 #include <sys/syscall.h>
 
-#include <map>
-
 #include <zmq.hpp>
 
 #include "launch_support.hpp"
 #include "run_checks.hpp"
 
 using launch_support::expect_no_process_left;
+using launch_support::expect_same_result;
+using launch_support::ContinueOnExit;
+using launch_support::fingerprint;
+using launch_support::KillOnExit;
+using launch_support::quickstart_with_timeout;
+using launch_support::running;
+using launch_support::temp;
 using launch_support::kBin;
 using launch_support::kSrc;
 using launch_support::pid_of;
+using launch_support::remove_run;
 using launch_support::run;
+using launch_support::run_hierarchy_case;
 using launch_support::slurp;
 using launch_support::start;
 using launch_support::start_mlcg;
@@ -33,27 +40,6 @@ using run_checks::read_json;
 namespace fs = std::filesystem;
 
 namespace {
-
-fs::path temp(const std::string& tag) {
-  return fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()));
-}
-
-// Every regular file under dir by its path, with a hash of its bytes: what "unchanged" means for a run folder.
-std::map<std::string, size_t> fingerprint(const fs::path& dir) {
-  std::map<std::string, size_t> out;
-  for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.is_regular_file()) out[fs::relative(e.path(), dir).string()] = std::hash<std::string>{}(slurp(e.path()));
-  return out;
-}
-
-// The process runs (a zombie waiting for its reaper, or no process, counts as ended).
-bool running(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-  std::string stat;
-  std::getline(in, stat);
-  const auto close = stat.rfind(')');
-  return close != std::string::npos && close + 2 < stat.size() && stat[close + 2] != 'Z';
-}
 
 // The pids of the processes status.json lists as running, once it lists n of them (it is written about once
 // a second); fewer when it does not within 10 s.
@@ -71,16 +57,6 @@ std::vector<pid_t> run_processes(const fs::path& dir, size_t n) {
   }
   return out;
 }
-
-// Kills and reaps a child that a failed assertion would leave running.
-struct KillOnExit {
-  pid_t pid;
-  ~KillOnExit() {
-    if (pid <= 0) return;
-    kill(pid, SIGKILL);
-    waitpid(pid, nullptr, 0);
-  }
-};
 
 // Waits up to `seconds` for every pid to end; the ones still running.
 std::vector<pid_t> still_running(const std::vector<pid_t>& pids, double seconds) {
@@ -230,7 +206,8 @@ TEST(RunFolderLock, AFolderHeldByALiveLauncherIsNeitherResumedNorReused) {
 
 // One batch asks for 600,000 particles (no rate) in a 0.13 m^3 cylinder around the funnel: a
 // legitimate batch (16 % of the volume; an impossible one is refused before step 1) that takes
-// many seconds of SSI. SIGTERM inside it ends the level within 2 s, with the batch dropped.
+// many seconds of SSI. It logs its progress; SIGTERM inside it ends the level within 2 s, with the
+// batch dropped.
 TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
   const fs::path dir = temp("bigbatch");
   const fs::path cfile = dir.string() + ".toml";
@@ -240,7 +217,8 @@ TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
            {"min = [-0.05, -0.05, -0.04]\nmax = [0.05, 0.05, 0.15]", "min = [-0.3, -0.3, -0.04]\nmax = [0.3, 0.3, 0.5]"},
            {"radius = 0.037, zmin = 0.002, zmax = 0.135", "radius = 0.29, zmin = 0.002, zmax = 0.49"},
            {"count = 2500\nrate = 20000.0\n", "count = 600000\n"},
-           {"follow_gap = 0.005\nfollow_height = 0.02\n", ""}}) {
+           {"follow_gap = 0.005\nfollow_height = 0.02\n", ""},
+           {"[time]\n", "[time]\nprogress_interval = 0.5\n"}}) {
     ASSERT_NE(text.find(from), std::string::npos) << from;
     text.replace(text.find(from), from.size(), to);
   }
@@ -248,7 +226,15 @@ TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
   const pid_t pid = start({kBin + "/dem_level", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
   KillOnExit guard{pid};
   ASSERT_TRUE(wait_for_file(dir / "case.toml", pid)) << slurp(dir.string() + ".out");
-  sleep(1);  // the set-up takes milliseconds: the batch is under way
+  // The batch says that it moves (progress_interval = 0.5 s), in the log as it happens (a busy
+  // machine may take a few seconds for the set-up).
+  std::string log;
+  for (int i = 0; i < 200 && log.find(" of 600000 particles") == std::string::npos; ++i) {
+    usleep(50000);
+    log = slurp((dir / "log.txt").string());
+  }
+  EXPECT_NE(log.find("insertion 'fill': batch 1 has tried "), std::string::npos) << log;
+  EXPECT_NE(log.find(" of 600000 particles"), std::string::npos) << log;
   ASSERT_EQ(waitpid(pid, nullptr, WNOHANG), 0) << "dem_level ended before the signal";
   ASSERT_EQ(kill(pid, SIGTERM), 0);
   const auto code = wait_exit_within(pid, 2.0);
@@ -309,28 +295,6 @@ TEST(DemLevelSignals, SigtermEndsTheWaitForTheCouplerWithinTwoSeconds) {
 
 // ---- A hung level is named (fault 4) ----
 
-namespace {
-// The quickstart hierarchy with `[coupling] timeout` set; the case file's path.
-fs::path quickstart_with_timeout(double timeout, const std::string& tag) {
-  std::string text = slurp(kSrc + "/cases/quickstart/mlcg.toml");
-  const std::string from = "[coupling]                 # interval automatic: 1.92e-4 s\n";
-  EXPECT_NE(text.find(from), std::string::npos);
-  text.replace(text.find(from), from.size(), "[coupling]\ntimeout = " + std::to_string(timeout) + "\n");
-  const fs::path c = temp(tag).string() + ".toml";
-  std::ofstream(c) << text;
-  return c;
-}
-
-// Wakes and kills a process the test stopped, should the run have left it.
-struct ContinueOnExit {
-  pid_t pid;
-  ~ContinueOnExit() {
-    kill(pid, SIGCONT);
-    if (running(pid)) kill(pid, SIGKILL);
-  }
-};
-}  // namespace
-
 // kill -STOP of the fine level: the coarse level waits on the coupler, which waits on 'fine'. The run ends
 // within about the timeout, naming 'fine' as the silent level in the launcher's output, the coupler's log
 // and the summary; the coarse level's summary says it stopped because of 'fine'; nothing blames the coupler, and no
@@ -364,6 +328,13 @@ TEST(HungLevel, AStoppedFineLevelIsNamedWithinTheTimeoutAndNoProcessIsLeft) {
   EXPECT_EQ(s["status"], "failed");
   EXPECT_EQ(s["reason"].get<std::string>().rfind(named, 0), 0u) << s["reason"];
   EXPECT_EQ(s["coupling"]["silent_level"], "fine");
+  // `mlcg ps` on the ended run tells why, from status.json.
+  const auto st = read_json(dir / "status.json");
+  EXPECT_EQ(st["state"], "failed");
+  EXPECT_EQ(st.value("reason", "").rfind(named, 0), 0u) << st;
+  ASSERT_EQ(run(kBin + "/mlcg ps " + dir.string() + " > " + dir.string() + ".ps 2>&1"), 0);
+  EXPECT_NE(slurp(dir.string() + ".ps").find("reason: " + named), std::string::npos) << slurp(dir.string() + ".ps");
+  fs::remove(dir.string() + ".ps");
   expect_no_process_left(dir);
   fs::remove_all(dir);
   for (const auto& f : {dir.string() + ".out", cfile.string()}) fs::remove(f);
@@ -375,13 +346,11 @@ TEST(HungLevel, AStoppedFineLevelIsNamedWithinTheTimeoutAndNoProcessIsLeft) {
 // coupler drops it once they back up (logged once, its binary id in hex) and the run ends with the per-face
 // totals of an undisturbed run (runs are deterministic).
 TEST(BusFlood, APeerThatNeverReadsIsDroppedAndTheRunIsUnaffected) {
-  const fs::path ref = temp("flood_ref"), dir = temp("flood");
-  for (const auto& d : {ref, dir}) fs::remove_all(d);
-  const std::string quickstart = kSrc + "/cases/quickstart/mlcg.toml";
-  ASSERT_EQ(run(kBin + "/mlcg run " + quickstart + " --out " + ref.string() + " --quiet > " + ref.string() +
-                ".out 2>&1"),
-            0) << slurp(ref.string() + ".out");
-  const pid_t pid = start_mlcg({"run", quickstart, "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  const fs::path ref = run_hierarchy_case("cases/quickstart/mlcg.toml", "flood_ref"), dir = temp("flood");
+  ASSERT_FALSE(HasFailure());
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
   KillOnExit guard{pid};
   ASSERT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");  // the levels are coupled
   const std::string id("\x00\xff" "flood", 7);  // bytes a log must not print raw
@@ -395,15 +364,12 @@ TEST(BusFlood, APeerThatNeverReadsIsDroppedAndTheRunIsUnaffected) {
   // The socket stays open, unread, until the run ends.
   EXPECT_EQ(wait_exit(pid), 0) << slurp(dir.string() + ".out");
   guard.pid = -1;
-  EXPECT_EQ(slurp(dir / "coupling" / "faces_region0.csv"), slurp(ref / "coupling" / "faces_region0.csv"));
+  expect_same_result(dir, ref);
   const std::string log = slurp(dir / "coupler.log");
   const std::string dropped = "dropped peer 0x00ff666c6f6f64";
   const size_t at = log.find(dropped);
   EXPECT_NE(at, std::string::npos) << log.substr(0, 4000);
   EXPECT_EQ(log.find(dropped, at + 1), std::string::npos) << "the drop must be logged once";
   EXPECT_EQ(log.find(id.substr(1)), std::string::npos) << "the peer's id is logged as raw bytes";
-  for (const auto& d : {ref, dir}) {
-    fs::remove_all(d);
-    fs::remove(d.string() + ".out");
-  }
+  for (const auto& d : {ref, dir}) remove_run(d);
 }

@@ -2,7 +2,8 @@
 // anything starts (issue 13 A): a manifest or launcher.json field of the wrong
 // type is named with its file; a manifest may not name files outside its run's
 // checkpoints folder; a damaged consistent set is refused with the previous set
-// to continue from (or that none exists); an empty coupler.pb is called empty.
+// to continue from (or that none exists); an empty, cut or another case's coupler.pb is called so; a cut,
+// foreign or other-case manifest is named.
 // The run folders here are made by hand: nothing is simulated.
 #include <gtest/gtest.h>
 
@@ -16,6 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "launch_support.hpp"
 #include "bus/case_hash.hpp"
 #include "level/level.hpp"
 #include "mlcg/bus.pb.h"
@@ -150,25 +152,57 @@ TEST(ResumeChecks, ManifestNamingAnotherRunsFilesIsRefused) {
   EXPECT_NE(out.find("outside the run's checkpoints folder"), std::string::npos) << out;
 }
 
+// A level checkpoint overwritten with garbage, or cut to half its length (a copy that stopped short).
 TEST(ResumeChecks, DamagedLevelCheckpointPointsToThePreviousIntactSet) {
   RunFolder run("damaged");
   run.full_set(8);
   run.full_set(4);
-  write(run.dir / "checkpoints" / "i8" / "fine.h5", "not an HDF5 file");
+  const fs::path fine = run.dir / "checkpoints" / "i8" / "fine.h5";
+  const std::string whole = slurp(fine);
   json m = set_entry(8);
   m["previous"] = set_entry(4);
   run.manifest(m);
-  const std::string out = run.resume(2);
-  EXPECT_NE(out.find("the consistent checkpoint at interval 8 (t = 0.0008 s) is damaged: " + run.dir.string() +
-                     "/checkpoints/i8/fine.h5 (level 'fine') cannot be read"),
-            std::string::npos)
-      << out;
-  EXPECT_NE(out.find("the previous consistent set, interval 4 (t = 0.0004 s), is intact: continue from it with `mlcg "
-                     "resume " + run.dir.string() + " --previous`"),
-            std::string::npos)
-      << out;
+  for (const std::string& damaged : {std::string("not an HDF5 file"), whole.substr(0, whole.size() / 2)}) {
+    write(fine, damaged);
+    const std::string out = run.resume(2);
+    EXPECT_NE(out.find("the consistent checkpoint at interval 8 (t = 0.0008 s) is damaged: " + fine.string() +
+                       " (level 'fine') cannot be read"),
+              std::string::npos)
+        << out;
+    EXPECT_NE(out.find("the previous consistent set, interval 4 (t = 0.0004 s), is intact: continue from it with "
+                       "`mlcg resume " + run.dir.string() + " --previous`"),
+              std::string::npos)
+        << out;
+  }
   // --previous takes that set (and then meets the case hash the test left wrong, before starting anything).
   EXPECT_NE(run.resume(2, " --previous").find("changed since the checkpoint"), std::string::npos);
+}
+
+// The manifest itself cut short, replaced by a JSON file that is not a manifest, or written for another case:
+// refused naming it, before anything starts, and the run folder is left as it was.
+TEST(ResumeChecks, CutForeignOrOtherCaseManifestIsRefusedNamingIt) {
+  RunFolder run("manifest");
+  run.full_set(6);
+  run.manifest(set_entry(6));
+  const fs::path path = run.dir / "checkpoints" / "manifest.json";
+  const std::string whole = slurp(path);
+  const std::pair<std::string, std::string> cases[] = {
+      {whole.substr(0, whole.size() / 2), path.string() + " is not valid JSON (the hierarchy's consistent checkpoint)"},
+      {R"({"format": "another-program", "interval": 6})", path.string() + " is not an MLCG hierarchy checkpoint manifest"},
+      {whole, "changed since the checkpoint (hash "}};  // the fixture's manifest names another case's hash
+  // What may change: launcher.lock, which names the last launcher that held the folder.
+  const auto files = [&] {
+    auto f = launch_support::fingerprint(run.dir);
+    f.erase("launcher.lock");
+    return f;
+  };
+  for (const auto& [text, refusal] : cases) {
+    write(path, text);
+    const auto before = files();
+    const std::string out = run.resume(2);
+    EXPECT_NE(out.find(refusal), std::string::npos) << out;
+    EXPECT_EQ(files(), before) << "a refused resume changed the run folder";
+  }
 }
 
 TEST(ResumeChecks, DamagedSetWithoutAnEarlierOneSaysNoneExists) {
@@ -183,13 +217,17 @@ TEST(ResumeChecks, DamagedSetWithoutAnEarlierOneSaysNoneExists) {
   EXPECT_EQ(out.find("--previous"), std::string::npos) << out;
 }
 
-TEST(ResumeChecks, CouplerCallsAnEmptyOrTruncatedStateSo) {
+TEST(ResumeChecks, CouplerCallsAnEmptyTruncatedOrOtherCaseStateSo) {
   const fs::path dir = fs::temp_directory_path() / ("mlcg_resume_pb_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   write(dir / "empty.pb", "");
   coupler_file(dir / "whole.pb", 3);
   const std::string whole = slurp(dir / "whole.pb");
   write(dir / "cut.pb", whole.substr(0, whole.size() / 2));
+  mlcg::bus::CouplerCheckpoint other;
+  other.set_interval(3);
+  other.set_case_hash("0123456789abcdef");
+  write(dir / "other.pb", other.SerializeAsString());
   std::string out;
   EXPECT_EQ(run(kBin + "/coupler_service " + kCase + " --out " + (dir / "run").string() + " --quiet --resume " +
                     (dir / "empty.pb").string(), out),
@@ -201,5 +239,10 @@ TEST(ResumeChecks, CouplerCallsAnEmptyOrTruncatedStateSo) {
             1);
   EXPECT_NE(out.find((dir / "cut.pb").string() + " is truncated or not a coupler checkpoint"), std::string::npos)
       << out;
+  EXPECT_EQ(run(kBin + "/coupler_service " + kCase + " --out " + (dir / "run").string() + " --quiet --resume " +
+                    (dir / "other.pb").string(), out),
+            1);
+  EXPECT_NE(out.find((dir / "other.pb").string() + ": written for another case (hash 0123456789abcdef"),
+            std::string::npos) << out;
   fs::remove_all(dir);
 }

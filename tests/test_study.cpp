@@ -6,11 +6,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <utility>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -174,6 +176,35 @@ void check_intervals(const std::vector<std::map<std::string, std::string>>& rows
               1e-6 * fine["ci95_kg_per_s"].get<double>());
 }
 
+// What a run cost by its own summary.json: the CPU seconds the launcher measured and the particle-steps
+// summed over its levels, coarsest first.
+std::pair<double, double> cost(const std::string& run) {
+  const auto s = summary(run);
+  double steps = 0.0;
+  for (const auto& l : s["levels"]) steps += l["particle_steps"].get<double>();
+  return {s["cpu_seconds"].get<double>(), steps};
+}
+
+// The csv's 9 significant digits of x, as the study prints them.
+std::string digits9(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.9g", x);
+  return b;
+}
+
+// speedup_cpu and particle_step_ratio of every row equal the reference's cost over the row's, recomputed from
+// the runs' own summaries, to every digit the csv prints.
+void check_ratios(const std::vector<std::map<std::string, std::string>>& rows) {
+  const auto [cpu_ref, steps_ref] = cost(rows[0].at("run"));
+  for (const auto& r : rows) {
+    const auto [cpu, steps] = cost(r.at("run"));
+    EXPECT_EQ(r.at("speedup_cpu"), digits9(cpu_ref / cpu)) << r.at("name");
+    EXPECT_EQ(r.at("particle_step_ratio"), digits9(steps_ref / steps)) << r.at("name");
+  }
+  EXPECT_EQ(rows[0].at("speedup_cpu"), "1");
+  EXPECT_EQ(rows[0].at("particle_step_ratio"), "1");
+}
+
 void check_rows() {
   const auto rows = read_csv(kDir / "main" / "study.csv");
   ASSERT_EQ(rows.size(), 3u);
@@ -205,6 +236,7 @@ void check_rows() {
     EXPECT_NEAR(std::stod(r.at("cpu_s")), cpu, 1e-6 * cpu) << r.at("name");
     EXPECT_GT(cpu, 0.2 * wall) << "the run's processes used no CPU?";
   }
+  check_ratios(rows);
   // The plain coarse grain is much cheaper in particle-steps; the hierarchy's probe is its fine level's.
   EXPECT_GT(std::stod(rows[1].at("particle_step_ratio")), 2.0);
   EXPECT_EQ(summary(rows[2].at("run"))["probes_from_level"], "fine");
@@ -376,6 +408,9 @@ TEST_F(Study, RefusesBadStudyFilesNamingFileLineAndKey) {
     std::string text, expect;
   };
   const std::string sweep = "[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\n\n[[sweep]]\nbase = \"mlcg.toml\"\n";
+  // A table header of 100,000 parts overflowed the TOML reader's stack (found by fuzzing, tests/fuzz/fuzz_study).
+  std::string deep = "a";
+  for (int k = 1; k < 100000; ++k) deep += ".a";
   const Bad bad[] = {
       {sweep + "key = \"coupling.intervall\"\nvalues = [1e-4]\n", "bad.toml:7: sweep[0].key"},
       {sweep + "key = \"levels.nosuch.alpha\"\nvalues = [2.0]\n", "'nosuch' selects no entry of levels"},
@@ -392,6 +427,8 @@ TEST_F(Study, RefusesBadStudyFilesNamingFileLineAndKey) {
       // the region rules, before anything runs: a region top 0.83 orifice diameters above the orifice
       {sweep + "key = \"coupling.regions[0].max\"\nvalues = [[0.04, 0.04, 0.02]]\n",
        "coupling.regions[0].max: the region's top (its boundary surface"},
+      {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\n[" + deep + "]\n",
+       "bad.toml:4: a dotted key or table header of more than 64 parts"},
   };
   for (const auto& b : bad) {
     std::ofstream(kDir / "cases" / "bad.toml") << b.text;
