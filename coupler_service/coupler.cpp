@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <fmt/format.h>
+
 #include "core/time_steps.hpp"
 
 namespace mlcg::coupling {
@@ -87,6 +89,7 @@ void Coupler::check(const bus::GridStats& g, const Region& r, bool coarse, size_
   bad("cell_volume_fraction", g.cell_volume_fraction_size(), nc);
   bad("cell_velocity", g.cell_velocity_size(), 3 * nc);
   bad("cell_max_speed", g.cell_max_speed_size(), nc);
+  check_values(g, r, level);
   if (coarse) {
     bad("face_mass", g.face_mass_size(), nf);
     bad("face_momentum", g.face_momentum_size(), 3 * nf);
@@ -96,6 +99,41 @@ void Coupler::check(const bus::GridStats& g, const Region& r, bool coarse, size_
     if (g.occupants_size() % 4 != 0) bad("occupants", g.occupants_size(), g.occupants_size() / 4 * 4);
     if (g.face_returned_mass_size() != 0) bad("face_returned_mass", g.face_returned_mass_size(), nf);
   }
+}
+
+void Coupler::check_values(const bus::GridStats& g, const Region& r, size_t level) const {
+  const auto refuse = [&](const std::string& what) {
+    throw std::invalid_argument(
+        fmt::format("coupler: level '{}' region {}: {}", cfg_.levels[level].name, g.grid(), what));
+  };
+  const auto finite = [&](const char* field, const google::protobuf::RepeatedField<double>& a) {
+    for (int i = 0; i < a.size(); ++i)
+      if (!std::isfinite(a[i])) refuse(fmt::format("{}[{}] is {}; statistics are finite numbers", field, i, a[i]));
+  };
+  finite("face_mass", g.face_mass());
+  finite("face_momentum", g.face_momentum());
+  finite("face_moment", g.face_moment());
+  finite("cell_stress", g.cell_stress());
+  finite("cell_volume_fraction", g.cell_volume_fraction());
+  finite("cell_velocity", g.cell_velocity());
+  finite("cell_max_speed", g.cell_max_speed());
+  finite("occupants", g.occupants());
+  finite("face_returned_mass", g.face_returned_mass());
+  if (!std::isfinite(g.mass_in_region()) || !std::isfinite(g.mass_leaving()))
+    refuse(fmt::format("mass_in_region {} kg, mass_leaving {} kg; statistics are finite numbers", g.mass_in_region(),
+                       g.mass_leaving()));
+  for (int i = 0; i < g.face_histogram_size(); ++i)
+    if (g.face_histogram(i) > kMaxCrossings || g.face_histogram(i) < -kMaxCrossings)
+      refuse(fmt::format("face_histogram[{}] counts {} crossings in one interval; at most {} either way", i,
+                         g.face_histogram(i), kMaxCrossings));
+  // The planner's overlap test searches the hash cells within the largest occupant radius: a radius beyond
+  // a coupling cell is no fine particle, and a huge one would make that search endless.
+  const double h = r.geo.cell_size();
+  for (int i = 3; i < g.occupants_size(); i += 4)
+    if (!(g.occupants(i) > 0.0 && g.occupants(i) <= h))
+      refuse(fmt::format("occupant {} has radius {} m; occupants are fine particles, of a radius > 0 and up to the "
+                         "cell size ({} m)",
+                         i / 4, g.occupants(i), h));
 }
 
 std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vector<bus::IntervalStats>& stats) {

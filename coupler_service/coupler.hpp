@@ -96,6 +96,10 @@ class Coupler {
   };
   const bus::GridStats& grid_stats(const bus::IntervalStats& s, size_t region, size_t level) const;
   void check(const bus::GridStats& g, const Region& r, bool coarse, size_t level) const;
+  // Every value finite, histogram counts and occupant radii within what a level can send (a stray or
+  // damaged message must be refused, not planned with).
+  void check_values(const bus::GridStats& g, const Region& r, size_t level) const;
+  static constexpr int64_t kMaxCrossings = 1'000'000'000'000;  // per face and radius bin in one interval
 
   CouplerConfig cfg_;
   std::vector<std::unique_ptr<Region>> regions_;

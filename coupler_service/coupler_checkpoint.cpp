@@ -1,6 +1,7 @@
 // The coupler's part of a consistent hierarchy checkpoint: every value the
 // next intervals' commands depend on. The planner's random draws are seeded by
 // (seed, face, interval), so faces + controllers + interval index are the whole state.
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -18,6 +19,50 @@ void put(google::protobuf::RepeatedField<double>* out, const Vec3& v) {
 Vec3 get(const google::protobuf::RepeatedField<double>& a, const std::string& what) {
   if (a.size() != 3) throw std::invalid_argument("coupler checkpoint: " + what + " needs 3 values");
   return {a[0], a[1], a[2]};
+}
+
+// Cumulative crossing counts stay far from int64 overflow: 2^50 is some 10^15 particles per face and bin.
+constexpr int64_t kMaxCount = int64_t{1} << 50;
+
+[[noreturn]] void damaged(const std::string& where, const std::string& what) {
+  throw std::invalid_argument("coupler checkpoint: " + where + ": " + what +
+                              "; the checkpoint is damaged: resume from an intact consistent set");
+}
+
+void check_finite(const std::string& where, const char* field, const google::protobuf::RepeatedField<double>& a) {
+  for (int i = 0; i < a.size(); ++i)
+    if (!std::isfinite(a[i])) damaged(where, std::string(field) + "[" + std::to_string(i) + "] is not a finite number");
+}
+
+// A face's state as the coupler saves it: finite numbers, counts in range, a drawn radius of the fine
+// sizes (r_lo..r_hi) or none.
+void check_face(const bus::FaceCheckpoint& fc, const std::string& where, double r_lo, double r_hi) {
+  for (const double v : {fc.crossed(), fc.inserted(), fc.remainder(), fc.last_crossed(), fc.returned()})
+    if (!std::isfinite(v)) damaged(where, "a mass that is not a finite number");
+  check_finite(where, "velocity", fc.velocity());
+  check_finite(where, "anchor", fc.anchor());
+  for (const int64_t h : fc.histogram())
+    if (h > kMaxCount || h < -kMaxCount)
+      damaged(where, "a crossing count of " + std::to_string(h) + "; at most 2^50 either way");
+  const double r = fc.next_radius();
+  if (!(r == 0.0 || (r >= r_lo * (1.0 - 1e-12) && r <= r_hi * (1.0 + 1e-12))))
+    damaged(where, "next_radius " + std::to_string(r) + " m is neither 0 nor a fine radius (" + std::to_string(r_lo) +
+                       " to " + std::to_string(r_hi) + " m)");
+}
+
+// The insertion list of the commands saved: whole particles of finite values, each placed for a face of the grid.
+void check_last(const bus::RegionCheckpoint& rc, const std::string& where, size_t faces) {
+  check_finite(where, "last_insert", rc.last_insert());
+  for (int i = 3; i < rc.last_insert_size(); i += 7)
+    if (!(rc.last_insert(i) > 0.0))
+      damaged(where, "last_insert particle " + std::to_string(i / 7) + " has a radius <= 0");
+  for (const int32_t f : rc.last_insert_face())
+    if (f < -1 || f >= static_cast<int64_t>(faces))
+      damaged(where, "last_insert_face " + std::to_string(f) + " is not a face of the grid's " +
+                         std::to_string(faces) + " (or -1)");
+  check_finite(where, "pi_integral", rc.pi_integral());
+  check_finite(where, "pi_output", rc.pi_output());
+  check_finite(where, "velocity_integral", rc.velocity_integral());
 }
 
 }  // namespace
@@ -71,8 +116,12 @@ void Coupler::restore(const bus::CouplerCheckpoint& in) {
         rc.pi_output_size() != rc.faces_size() || rc.last_insert_size() % 7 != 0)
       throw std::invalid_argument(where + " has " + std::to_string(rc.faces_size()) + " faces, the case's grid has " +
                                   std::to_string(faces.size()));
+    check_last(rc, where, faces.size());
+    const auto& bins = r.cfg.planner.radius_bins;
     for (size_t f = 0; f < faces.size(); ++f) {
       const bus::FaceCheckpoint& fc = rc.faces(static_cast<int>(f));
+      check_face(fc, where + " face " + std::to_string(f), bins.front() / r.cfg.planner.ratio,
+                 bins.back() / r.cfg.planner.ratio);
       FaceState& s = faces[f];
       if (static_cast<size_t>(fc.histogram_size()) != s.histogram.size())
         throw std::invalid_argument(where + ": face " + std::to_string(f) + " has another number of radius bins");

@@ -30,6 +30,7 @@ Service::Service(Coupler& coupler, bus::Channel& channel, ServiceOptions opt, st
   if (opt_.resume) {
     coupler_.restore(*opt_.resume);
     k_ = opt_.resume->interval();
+    k_start_ = k_;
     busy_ = opt_.resume->busy_seconds();
     resume_cmds_.assign(opt_.resume->commands().begin(), opt_.resume->commands().end());
     if (resume_cmds_.size() != peers_.size())
@@ -92,7 +93,10 @@ bool Service::deliver(const bus::Envelope& env, const std::string& peer) {
     return false;
   }
   for (auto& p : peers_)
-    if (p.identity == peer) p.last_sent = now();
+    if (p.identity == peer) {
+      p.last_sent = now();
+      p.bytes_out += ch_.last_send_bytes();
+    }
   return true;
 }
 
@@ -171,8 +175,9 @@ void Service::handle(const bus::Incoming& in) {
   }
   if (!in.ok()) return refuse(in.peer, in.error);
   const bus::Envelope& env = in.env;
-  if (env.has_register_level()) return on_register(in);
   const int l = coupler_.level_index(in.peer);
+  if (l >= 0) peers_[static_cast<size_t>(l)].bytes_in += in.bytes;
+  if (env.has_register_level()) return on_register(in);
   if (l < 0 || !peers_[static_cast<size_t>(l)].registered)
     return refuse(in.peer, fmt::format("{} sent {} before registering", bus::peer_name(in.peer), bus::body_name(env)));
   Peer& p = peers_[static_cast<size_t>(l)];
@@ -232,6 +237,13 @@ void Service::write_final(const std::string& status) const {
   j["dropped_peers"] = nlohmann::json::array();
   for (const auto& p : dropped_) j["dropped_peers"].push_back(bus::peer_name(p));
   j["ignored_messages"] = ignored_;
+  // The bus load per level: message frames as sent and received (ZeroMQ adds a few bytes of framing).
+  const double run_intervals = static_cast<double>(std::max<uint64_t>(1, k_ - k_start_));
+  j["levels"] = nlohmann::json::array();
+  for (const auto& p : peers_)
+    j["levels"].push_back({{"name", p.identity}, {"bytes_from_level", p.bytes_in}, {"bytes_to_level", p.bytes_out},
+                           {"bytes_per_interval_from_level", static_cast<double>(p.bytes_in) / run_intervals},
+                           {"bytes_per_interval_to_level", static_cast<double>(p.bytes_out) / run_intervals}});
   j["regions"] = nlohmann::json::array();
   for (size_t r = 0; r < coupler_.config().regions.size(); ++r) {
     const auto& geo = coupler_.geometry(r);

@@ -77,6 +77,7 @@ class Service {
     bus::IntervalStats stats;
     double psteps = 0.0, pwall = 0.0;  // particle-steps and wall seconds since the last progress file
     double rate = 0.0;                 // particle-steps per wall second, as last reported
+    uint64_t bytes_in = 0, bytes_out = 0;  // bus payload from / to it since this coupler started
   };
   int loop();
   // Fails the run (true) when interval k_ can never complete: a level finished early or went silent.
@@ -114,6 +115,7 @@ class Service {
   std::shared_ptr<spdlog::logger> log_;
   std::vector<Peer> peers_;
   uint64_t k_ = 0;          // interval the levels are running
+  uint64_t k_start_ = 0;    // the interval this coupler started at (a resume's), for bytes per interval
   uint64_t refused_ = 0;
   std::map<std::string, uint64_t> refusals_;  // per peer, to log only the first kLoggedRefusals
   static constexpr uint64_t kLoggedRefusals = 10;

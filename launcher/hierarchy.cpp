@@ -181,10 +181,17 @@ std::vector<Member> members_of(const config::CaseSpec& cs, const std::string& ca
 void print_end(const fs::path& run_dir, const Outcome& r) {
   const auto s = read_json(run_dir / "summary.json");
   std::printf("\n== %s: %s ==\n", run_dir.c_str(), s.value("status", "?").c_str());
-  for (const auto& l : s["levels"])
-    std::printf("level %s: alpha %g, up to %d particles, %.1f s wall, %.3g particle-steps/s\n",
+  for (const auto& l : s["levels"]) {
+    std::string bus;
+    if (s.contains("coupling") && s["coupling"].contains("levels"))
+      for (const auto& b : s["coupling"]["levels"])
+        if (b.value("name", "") == l.value("name", "?"))
+          bus = fmt::format("; bus {:.0f} B out, {:.0f} B in per coupling interval",
+                            b.value("bytes_per_interval_from_level", 0.0), b.value("bytes_per_interval_to_level", 0.0));
+    std::printf("level %s: alpha %g, up to %d particles, %.1f s wall, %.3g particle-steps/s%s\n",
                 l.value("name", "?").c_str(), l.value("alpha", 0.0), l.value("particles_max", 0),
-                l.value("wall_seconds", 0.0), l.value("particle_steps_per_second", 0.0));
+                l.value("wall_seconds", 0.0), l.value("particle_steps_per_second", 0.0), bus.c_str());
+  }
   if (s.contains("coupling") && s["coupling"].contains("regions"))
     for (const auto& g : s["coupling"]["regions"])
       std::printf("coupling: %llu fine particles inserted (%.6g kg of %.6g kg crossed, %.3g kg carried); overhead "
@@ -254,7 +261,7 @@ int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file
                        restarts < cs.launcher.restart_on_failure;
     const bool again = swapping || reverted || retry;
     board.update(members, again ? "restarting" : r.exit_code == 0 ? "completed" : r.interrupted ? "interrupted" : "failed",
-                 attempt, true);
+                 attempt, true, r.failed);
     if (!again) break;
     try {
       from = read_manifest(run_dir);

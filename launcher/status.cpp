@@ -54,12 +54,14 @@ std::string level_progress(const nlohmann::json& progress) {
 StatusBoard::StatusBoard(fs::path run_dir, std::string case_file, bool show_progress)
     : run_dir_(std::move(run_dir)), case_file_(std::move(case_file)), show_(show_progress) {}
 
-void StatusBoard::update(const std::vector<Member>& members, const std::string& state, int attempt, bool force) {
+void StatusBoard::update(const std::vector<Member>& members, const std::string& state, int attempt, bool force,
+                         const std::string& reason) {
   const double now = unix_now();
   if (!force && now - last_ < 1.0) return;
   last_ = now;
   nlohmann::json j;
   j["state"] = state;
+  if (!reason.empty()) j["reason"] = reason;
   j["case"] = case_file_;
   j["run_dir"] = fs::absolute(run_dir_).string();
   j["launcher_pid"] = getpid();
@@ -107,6 +109,7 @@ int print_ps(const fs::path& run_dir) {
   std::printf("%s: %s (case %s, launcher pid %d on %s, attempt %d)\n", run_dir.c_str(), state.c_str(),
               j.value("case", "?").c_str(), j.value("launcher_pid", -1), j.value("host", "?").c_str(),
               j.value("attempt", 0) + 1);
+  if (j.contains("reason")) std::printf("reason: %s\n", j.value("reason", "").c_str());
   std::printf("%-16s %8s %-12s %s\n", "process", "pid", "host", "state");
   for (const auto& p : j.value("processes", nlohmann::json::array())) {
     std::string st = p.value("state", "?");

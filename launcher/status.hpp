@@ -15,8 +15,10 @@ namespace mlcg::launcher {
 class StatusBoard {
  public:
   StatusBoard(std::filesystem::path run_dir, std::string case_file, bool show_progress);
-  // Writes status.json when `force` or a second has passed; refreshes the progress line.
-  void update(const std::vector<Member>& members, const std::string& state, int attempt, bool force = false);
+  // Writes status.json when `force` or a second has passed; refreshes the progress line. `reason`:
+  // why the run failed or restarts (the launcher's message), kept in status.json for `mlcg ps`.
+  void update(const std::vector<Member>& members, const std::string& state, int attempt, bool force = false,
+              const std::string& reason = {});
   void end_line();  // ends the progress line before other output
   double sim_time() const { return sim_time_; }  // the coupler's latest progress (0 before any)
 

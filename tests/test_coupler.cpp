@@ -1,10 +1,15 @@
 // The coupler's logic without sockets: controllers, insertion planner and one
-// interval of Coupler::advance, driven by scripted level statistics.
+// interval of Coupler::advance, driven by scripted level statistics; hostile
+// statistics and damaged checkpoints refused.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <functional>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "coupler.hpp"
 
@@ -38,6 +43,18 @@ PlannerParams planner_params() {
   p.radius_bins = {2.8e-3, 2.8e-3};
   p.seed = 7;
   return p;
+}
+
+// A coarse and a fine level over the small grid.
+CouplerConfig two_levels() {
+  CouplerConfig cfg;
+  cfg.levels = {{"coarse", 2.0, 1e-5, 1}, {"fine", 1.0, 5e-6, 1}};
+  cfg.interval = 8e-5;
+  RegionConfig rc;
+  rc.grid = small_grid();
+  rc.planner = planner_params();
+  cfg.regions.push_back(rc);
+  return cfg;
 }
 
 bool inside_box(const Vec3&, const Vec3& x, double r) {
@@ -250,14 +267,9 @@ TEST(InsertionPlanner, SameSeedSamePlanOtherSeedAnotherPlan) {
 }
 
 TEST(Coupler, OneIntervalGivesInsertionTractionAndCorrection) {
-  CouplerConfig cfg;
-  cfg.levels = {{"coarse", 2.0, 1e-5, 1}, {"fine", 1.0, 5e-6, 1}};
-  cfg.interval = 8e-5;
-  RegionConfig rc;
-  rc.grid = small_grid();
-  rc.planner = planner_params();
-  rc.velocity.gain = 10.0;
-  cfg.regions.push_back(rc);
+  CouplerConfig cfg = two_levels();
+  cfg.regions[0].velocity.gain = 10.0;
+  const RegionConfig& rc = cfg.regions[0];
   Coupler coupler(cfg, inside_box);
   const auto& geo = coupler.geometry(0);
   ASSERT_EQ(geo.faces(), 9u);
@@ -335,4 +347,105 @@ TEST(Coupler, RefusesALevelWhoseDtDoesNotDivideTheInterval) {
   cfg.levels = {{"coarse", 2.0, 1e-5, 1}, {"fine", 1.0, 5e-6, 1}};
   cfg.interval = 7.5e-5;
   EXPECT_THROW(Coupler(cfg, inside_box), std::invalid_argument);
+}
+
+// ---- hostile statistics and damaged checkpoints (issue 13; found by fuzzing, tests/fuzz) -------
+
+namespace {
+
+// Interval k: mass crossing every face downward, an empty insertion slab.
+std::vector<bus::IntervalStats> flowing(const bus::CouplingGeometry& geo, uint64_t k) {
+  std::vector<bus::IntervalStats> st(2);
+  for (auto& s : st) s.set_interval(k);
+  auto* cg = st[0].add_grids();
+  face_flux(*cg, geo, 2e-4, {0, 0, -0.3});
+  cells(*cg, geo, 300.0, 0.5, {0, 0, -0.10}, 0.4);
+  auto* fg = st[1].add_grids();
+  cells(*fg, geo, 200.0, 0.6, {0, 0, -0.12}, 0.3);
+  fg->set_occupants_sent(true);
+  return st;
+}
+
+// The message of advancing a fresh coupler with `st` ("" when accepted).
+std::string advance_refusal(const std::vector<bus::IntervalStats>& st) {
+  Coupler coupler(two_levels(), inside_box);
+  try {
+    coupler.advance(0, st);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Coupler, RefusesStatisticsThatAreNotFiniteOrOutOfRangeNamingLevelAndField) {
+  const Coupler ref(two_levels(), inside_box);
+  const auto st = flowing(ref.geometry(0), 0);
+  EXPECT_EQ(advance_refusal(st), "");
+  auto with_occupant = [&](std::initializer_list<double> q) {
+    auto s = st;
+    for (double v : q) s[1].mutable_grids(0)->add_occupants(v);
+    return s;
+  };
+  EXPECT_EQ(advance_refusal(with_occupant({0.03, 0.03, 0.035, 1.4e-3})), "");
+  // What the fuzzer found: a NaN occupant (UB in the planner's overlap hash) and a crossing count of
+  // 2^63 - 1 (a signed overflow when the counts are summed).
+  EXPECT_NE(advance_refusal(with_occupant({0.03, std::nan(""), 0.035, 1.4e-3}))
+                .find("level 'fine' region 0: occupants[1] is nan; statistics are finite numbers"),
+            std::string::npos);
+  auto big = st;
+  big[0].mutable_grids(0)->set_face_histogram(0, INT64_MAX);
+  EXPECT_NE(advance_refusal(big).find("level 'coarse' region 0: face_histogram[0] counts 9223372036854775807 "
+                                      "crossings in one interval"),
+            std::string::npos);
+  EXPECT_EQ(advance_refusal(with_occupant({1e300, 0.03, 0.035, 1.4e-3})), "") << "far off: of no use, no harm";
+  EXPECT_NE(advance_refusal(with_occupant({0.03, 0.03, 0.035, 1e300}))
+                .find("level 'fine' region 0: occupant 0 has radius 1e+300 m"),
+            std::string::npos);
+  auto stress = st;
+  stress[0].mutable_grids(0)->set_cell_stress(2, INFINITY);
+  EXPECT_NE(advance_refusal(stress).find("level 'coarse' region 0: cell_stress[2] is inf"), std::string::npos);
+}
+
+TEST(Coupler, RestoreRefusesADamagedCheckpointNamingRegionAndFace) {
+  Coupler coupler(two_levels(), inside_box);
+  const auto cmds = coupler.advance(0, flowing(coupler.geometry(0), 0));
+  ASSERT_GT(cmds[1].grids(0).insert_size(), 0);
+  bus::CouplerCheckpoint saved;
+  coupler.save(saved);
+  ASSERT_GT(saved.regions(0).last_insert_face_size(), 0);
+  const auto refusal = [](const bus::CouplerCheckpoint& c) -> std::string {
+    Coupler resumed(two_levels(), inside_box);
+    try {
+      resumed.restore(c);
+      resumed.advance(1, flowing(resumed.geometry(0), 1));
+      resumed.cancel_last_insertions();
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(refusal(saved), "");
+  struct Damage {
+    std::function<void(bus::RegionCheckpoint&)> apply;
+    std::string expect;
+  };
+  const Damage damages[] = {
+      // what the fuzzer found: a face index out of range (a segfault when the levels finish)
+      {[](auto& r) { r.set_last_insert_face(0, 4000); },
+       "region 0: last_insert_face 4000 is not a face of the grid's 9"},
+      {[](auto& r) { r.mutable_faces(2)->set_histogram(0, INT64_MAX); },
+       "region 0 face 2: a crossing count of 9223372036854775807; at most 2^50 either way"},
+      {[](auto& r) { r.mutable_faces(1)->set_next_radius(-1.0); }, "region 0 face 1: next_radius -1"},
+      {[](auto& r) { r.set_pi_integral(3, std::nan("")); }, "region 0: pi_integral[3] is not a finite number"},
+      {[](auto& r) { r.set_last_insert(3, 0.0); }, "region 0: last_insert particle 0 has a radius <= 0"},
+  };
+  for (const auto& d : damages) {
+    auto c = saved;
+    d.apply(*c.mutable_regions(0));
+    const std::string msg = refusal(c);
+    EXPECT_NE(msg.find("coupler checkpoint: " + d.expect), std::string::npos) << msg;
+    EXPECT_NE(msg.find("the checkpoint is damaged"), std::string::npos) << msg;
+  }
 }

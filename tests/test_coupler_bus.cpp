@@ -2,6 +2,7 @@
 // (threads speaking the protocol, no DEM): registration, the interval loop,
 // refusal of bad messages, timeouts, determinism and a three-level hierarchy.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <unistd.h>
 
@@ -81,6 +82,7 @@ struct LevelResult {
   double traction_sum = 0.0;
   uint64_t heartbeats = 0;     // the coupler's, received while waiting for commands
   std::string waiting_for;     // what the last of them said the coupler waited for
+  uint64_t bytes_sent = 0, bytes_received = 0;  // frames of every message, counted on this side
 };
 
 // A level without DEM: registers, then answers commands(k) with stats(k). As
@@ -98,8 +100,17 @@ LevelResult scripted_level(const std::string& ep, const CouplerConfig& cfg, size
   r->set_dt(cfg.levels[me].dt);
   r->set_ranks(1);
   r->set_case_hash(hash);
-  ch.send(reg);
-  auto in = ch.receive(milliseconds(5000));
+  const auto send = [&](const bus::Envelope& e) {
+    ch.send(e);
+    res.bytes_sent += ch.last_send_bytes();
+  };
+  const auto receive = [&](milliseconds t) {
+    auto m = ch.receive(t);
+    if (m) res.bytes_received += m->bytes;
+    return m;
+  };
+  send(reg);
+  auto in = receive(milliseconds(5000));
   if (!in || !in->env.has_welcome()) {
     res.error = in && in->env.has_refused() ? in->env.refused().reason() : "no welcome";
     return res;
@@ -110,8 +121,8 @@ LevelResult scripted_level(const std::string& ep, const CouplerConfig& cfg, size
   std::vector<std::vector<Vec3>> mine(geo.size());  // fine particles per region (this level as fine)
   std::vector<bool> want(geo.size(), true);          // the coupler asked for the slab's particles
   for (uint64_t k = 0; k < intervals; ++k) {
-    auto c = ch.receive(milliseconds(5000));
-    for (; c && c->env.has_heartbeat(); c = ch.receive(milliseconds(5000))) {
+    auto c = receive(milliseconds(5000));
+    for (; c && c->env.has_heartbeat(); c = receive(milliseconds(5000))) {
       ++res.heartbeats;
       res.waiting_for = c->env.heartbeat().waiting_for();
     }
@@ -168,11 +179,12 @@ LevelResult scripted_level(const std::string& ep, const CouplerConfig& cfg, size
         gs->set_occupants_sent(want[g]);
       }
     }
-    ch.send(out);
+    send(out);
   }
   bus::Envelope bye;
   bye.mutable_bye()->set_reason("end time reached");
-  ch.send(bye);
+  send(bye);
+  while (receive(milliseconds(300))) {}  // what the coupler sent after our last read (the commands never run)
   return res;
 }
 
@@ -251,6 +263,26 @@ TEST(CouplerService, TwoScriptedLevelsRunToTheEndWithExactMass) {
   EXPECT_GT(run.levels[1].traction_sum, 0.0) << "the fine stress is below the coarse one: the PI must push";
   // One log row per interval the coupler computed (59: the last stats end the run).
   EXPECT_EQ(std::count(run.csv.begin(), run.csv.end(), '\n'), 1 + 60);
+}
+
+// The bus load the coupler reports per level (coupling/summary.json) is what the levels counted on
+// their side of the socket, to the byte.
+TEST(CouplerService, ReportsTheBusBytesEachLevelCounted) {
+  const fs::path out = scratch("bytes");
+  const RunResult run = run_hierarchy({4.0, 2.0, 1.0}, 25, out);
+  ASSERT_EQ(run.code, 0) << run.error;
+  std::ifstream f(out / "coupling" / "summary.json");
+  const auto j = nlohmann::json::parse(f);
+  ASSERT_EQ(j["levels"].size(), 3u);
+  for (size_t l = 0; l < 3; ++l) {
+    const auto& lv = j["levels"][l];
+    EXPECT_EQ(lv["bytes_from_level"].get<uint64_t>(), run.levels[l].bytes_sent) << lv["name"];
+    EXPECT_EQ(lv["bytes_to_level"].get<uint64_t>(), run.levels[l].bytes_received) << lv["name"];
+    EXPECT_NEAR(lv["bytes_per_interval_from_level"].get<double>(), run.levels[l].bytes_sent / 25.0,
+                1e-9 * run.levels[l].bytes_sent);
+  }
+  // The middle level reports two grids, so it sends the most.
+  EXPECT_GT(run.levels[1].bytes_sent, run.levels[0].bytes_sent);
 }
 
 TEST(CouplerService, SameSeedGivesIdenticalCouplerLogs) {

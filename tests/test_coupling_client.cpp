@@ -9,7 +9,9 @@
 #include <chrono>
 #include <filesystem>
 #include <cmath>
+#include <functional>
 #include <future>
+#include <memory>
 #include <numbers>
 #include <random>
 #include <string>
@@ -19,6 +21,7 @@
 
 #include "bus/case_hash.hpp"
 #include "bus/channel.hpp"
+#include "core/time_steps.hpp"
 #include "coupling/client.hpp"
 #include "coupling/controller_forces.hpp"
 #include "coupling/face_flux.hpp"
@@ -403,6 +406,44 @@ config::CaseSpec client_case() {
   return cs;
 }
 
+// The coupler on `ep` in a thread: `body` runs once a level registered (errors go to rec.error).
+// Returns once the coupler is bound.
+std::thread scripted_coupler(const std::string& ep, Recorded& rec,
+                             std::function<void(bus::Channel&, const bus::Incoming&)> body) {
+  std::promise<void> bound;
+  auto ready = bound.get_future();
+  std::thread t([&rec, ep, body = std::move(body), bound = std::move(bound)]() mutable {
+    bool told = false;
+    try {
+      zmq::context_t ctx;
+      bus::Channel ch(ctx, bus::Channel::Role::Router, ep, {});
+      bound.set_value();
+      told = true;
+      body(ch, next(ch, rec));
+    } catch (const std::exception& e) {
+      rec.error = e.what();
+      if (!told) bound.set_value();
+    }
+  });
+  ready.wait();
+  return t;
+}
+
+// Level 'fine''s client of the coupler at `ep` (not yet registered).
+std::unique_ptr<Client> fine_client(const Comm& comm, const std::string& ep, double timeout = 60.0) {
+  ClientOptions o;
+  o.endpoint = ep;
+  o.level_name = "fine";
+  o.timeout = timeout;
+  return std::make_unique<Client>(comm, o);
+}
+
+bus::Register registration() {
+  bus::Register reg;
+  reg.set_level_name("fine");
+  return reg;
+}
+
 }  // namespace
 
 TEST(CouplingClient, ScriptedCouplerRunsThreeIntervals) {
@@ -552,22 +593,12 @@ TEST(CouplingClient, RefusedRegistrationStopsWithTheCouplersReason) {
   const std::string ep = endpoint("refused");
   const IpcCleanup cleanup{ep};
   Recorded rec;
-  std::promise<void> bound;
-  std::thread coupler([&] {
-    try {
-      zmq::context_t ctx;
-      bus::Channel ch(ctx, bus::Channel::Role::Router, ep, {});
-      bound.set_value();
-      bus::Incoming in = next(ch, rec);
-      bus::Envelope env;
-      env.mutable_refused()->set_reason("level 'fine' runs another case (hash 0123456789abcdef)");
-      ch.send(env, in.peer);
-      std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    } catch (const std::exception& e) {
-      rec.error = e.what();
-    }
+  std::thread coupler = scripted_coupler(ep, rec, [](bus::Channel& ch, const bus::Incoming& in) {
+    bus::Envelope env;
+    env.mutable_refused()->set_reason("level 'fine' runs another case (hash 0123456789abcdef)");
+    ch.send(env, in.peer);
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
   });
-  bound.get_future().wait();
   LevelOptions opt = test::quiet();
   opt.coupler = ep;
   std::string what;
@@ -586,39 +617,23 @@ TEST(CouplingClient, SilentCouplerTimesOutNamingTheEndpointAfterHeartbeats) {
   const std::string ep = endpoint("silent");
   const IpcCleanup cleanup{ep};
   Recorded rec;
-  std::promise<void> bound;
   std::atomic<bool> done{false};
-  std::thread coupler([&] {
-    try {
-      zmq::context_t ctx;
-      bus::Channel ch(ctx, bus::Channel::Role::Router, ep, {});
-      bound.set_value();
-      bus::Incoming in = next(ch, rec);
-      ch.send(welcome_env(1e-4, 0.6, 0.1), in.peer);
-      while (!done) {  // never sends commands; counts the heartbeats
-        if (auto m = ch.receive(std::chrono::milliseconds(50)); m && m->ok() && m->env.has_heartbeat()) ++rec.heartbeats;
-      }
-    } catch (const std::exception& e) {
-      rec.error = e.what();
+  std::thread coupler = scripted_coupler(ep, rec, [&](bus::Channel& ch, const bus::Incoming& in) {
+    ch.send(welcome_env(1e-4, 0.6, 0.1), in.peer);
+    while (!done) {  // never sends commands; counts the heartbeats
+      if (auto m = ch.receive(std::chrono::milliseconds(50)); m && m->ok() && m->env.has_heartbeat()) ++rec.heartbeats;
     }
   });
-  bound.get_future().wait();
   Comm serial;
-  ClientOptions o;
-  o.endpoint = ep;
-  o.level_name = "fine";
-  o.timeout = 5.0;
-  Client client(serial, o);
-  bus::Register reg;
-  reg.set_level_name("fine");
-  const bus::Welcome w = client.handshake(reg);
+  const auto client = fine_client(serial, ep, 5.0);
+  const bus::Welcome w = client->handshake(registration());
   EXPECT_EQ(w.grids_size(), 3);
-  EXPECT_EQ(client.timeout(), 0.6);
-  EXPECT_EQ(client.heartbeat(), 0.1);
+  EXPECT_EQ(client->timeout(), 0.6);
+  EXPECT_EQ(client->heartbeat(), 0.1);
   std::string what;
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    client.commands(0, 0.0, 0);
+    client->commands(0, 0.0, 0);
   } catch (const CouplingError& e) {
     what = e.what();
   }
@@ -633,4 +648,41 @@ TEST(CouplingClient, SilentCouplerTimesOutNamingTheEndpointAfterHeartbeats) {
   EXPECT_GE(waited, 0.55);
   EXPECT_LT(waited, 3.0);
   EXPECT_GE(rec.heartbeats, 3);
+}
+
+// Found by fuzzing the level's side of the bus (tests/fuzz/fuzz_bus_level): a Welcome whose interval is more than
+// 2^63 steps made the conversion to a step count undefined; it is no whole number of steps.
+TEST(CouplingClient, AnIntervalOfMoreThan2To63StepsIsNoWholeNumberOfSteps) {
+  EXPECT_EQ(whole_steps(8e-5, 1e-5), 8u);
+  EXPECT_EQ(whole_steps(0x1p63 * 1e-5, 1e-5), uint64_t{1} << 63);
+  EXPECT_EQ(whole_steps(1e300, 1e-5), 0u);
+  EXPECT_EQ(whole_steps(INFINITY, 1e-5), 0u);
+}
+
+// A Welcome's timeout of 1e300 s means "wait for ever": the level waits for the commands instead of
+// timing out at once (the wait's deadline overflowed the clock).
+TEST(CouplingClient, AWelcomeTimeoutOf1e300SecondsWaitsForTheCommands) {
+  const std::string ep = endpoint("forever");
+  const IpcCleanup cleanup{ep};
+  Recorded rec;
+  std::thread coupler = scripted_coupler(ep, rec, [](bus::Channel& ch, const bus::Incoming& in) {
+    ch.send(welcome_env(1e-4, 1e300, 0.1), in.peer);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    bus::Envelope env;
+    env.mutable_commands()->set_interval(0);
+    ch.send(env, in.peer);
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  });
+  Comm serial;
+  const auto client = fine_client(serial, ep);
+  client->handshake(registration());
+  std::string what;
+  try {
+    EXPECT_EQ(client->commands(0, 0.0, 0).interval(), 0u);
+  } catch (const CouplingError& e) {
+    what = e.what();
+  }
+  coupler.join();
+  EXPECT_EQ(rec.error, "");
+  EXPECT_EQ(what, "");
 }

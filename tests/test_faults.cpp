@@ -206,7 +206,8 @@ TEST(RunFolderLock, AFolderHeldByALiveLauncherIsNeitherResumedNorReused) {
 
 // One batch asks for 600,000 particles (no rate) in a 0.13 m^3 cylinder around the funnel: a
 // legitimate batch (16 % of the volume; an impossible one is refused before step 1) that takes
-// many seconds of SSI. SIGTERM inside it ends the level within 2 s, with the batch dropped.
+// many seconds of SSI. It logs its progress; SIGTERM inside it ends the level within 2 s, with the
+// batch dropped.
 TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
   const fs::path dir = temp("bigbatch");
   const fs::path cfile = dir.string() + ".toml";
@@ -216,7 +217,8 @@ TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
            {"min = [-0.05, -0.05, -0.04]\nmax = [0.05, 0.05, 0.15]", "min = [-0.3, -0.3, -0.04]\nmax = [0.3, 0.3, 0.5]"},
            {"radius = 0.037, zmin = 0.002, zmax = 0.135", "radius = 0.29, zmin = 0.002, zmax = 0.49"},
            {"count = 2500\nrate = 20000.0\n", "count = 600000\n"},
-           {"follow_gap = 0.005\nfollow_height = 0.02\n", ""}}) {
+           {"follow_gap = 0.005\nfollow_height = 0.02\n", ""},
+           {"[time]\n", "[time]\nprogress_interval = 0.5\n"}}) {
     ASSERT_NE(text.find(from), std::string::npos) << from;
     text.replace(text.find(from), from.size(), to);
   }
@@ -224,7 +226,15 @@ TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
   const pid_t pid = start({kBin + "/dem_level", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
   KillOnExit guard{pid};
   ASSERT_TRUE(wait_for_file(dir / "case.toml", pid)) << slurp(dir.string() + ".out");
-  sleep(1);  // the set-up takes milliseconds: the batch is under way
+  // The batch says that it moves (progress_interval = 0.5 s), in the log as it happens (a busy
+  // machine may take a few seconds for the set-up).
+  std::string log;
+  for (int i = 0; i < 200 && log.find(" of 600000 particles") == std::string::npos; ++i) {
+    usleep(50000);
+    log = slurp((dir / "log.txt").string());
+  }
+  EXPECT_NE(log.find("insertion 'fill': batch 1 has tried "), std::string::npos) << log;
+  EXPECT_NE(log.find(" of 600000 particles"), std::string::npos) << log;
   ASSERT_EQ(waitpid(pid, nullptr, WNOHANG), 0) << "dem_level ended before the signal";
   ASSERT_EQ(kill(pid, SIGTERM), 0);
   const auto code = wait_exit_within(pid, 2.0);
@@ -318,6 +328,13 @@ TEST(HungLevel, AStoppedFineLevelIsNamedWithinTheTimeoutAndNoProcessIsLeft) {
   EXPECT_EQ(s["status"], "failed");
   EXPECT_EQ(s["reason"].get<std::string>().rfind(named, 0), 0u) << s["reason"];
   EXPECT_EQ(s["coupling"]["silent_level"], "fine");
+  // `mlcg ps` on the ended run tells why, from status.json.
+  const auto st = read_json(dir / "status.json");
+  EXPECT_EQ(st["state"], "failed");
+  EXPECT_EQ(st.value("reason", "").rfind(named, 0), 0u) << st;
+  ASSERT_EQ(run(kBin + "/mlcg ps " + dir.string() + " > " + dir.string() + ".ps 2>&1"), 0);
+  EXPECT_NE(slurp(dir.string() + ".ps").find("reason: " + named), std::string::npos) << slurp(dir.string() + ".ps");
+  fs::remove(dir.string() + ".ps");
   expect_no_process_left(dir);
   fs::remove_all(dir);
   for (const auto& f : {dir.string() + ".out", cfile.string()}) fs::remove(f);

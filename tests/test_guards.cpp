@@ -2,15 +2,18 @@
 // before step 1 with the file, line, key and the fix; an explicit override
 // with a reason is accepted; during the run a NaN or an excessive overlap
 // stops the level within one step, naming the particle, with a final checkpoint.
+// A damaged [initial] file is refused before step 1, naming the particle.
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "io/h5.hpp"
 #include "scene_support.hpp"
 
 using namespace mlcg;
@@ -134,4 +137,81 @@ TEST(StabilityGuard, ManyPlacedParticlesAreCheckedInLinearTime) {
   EXPECT_EQ(level.particles().n_local(), 100000u);
   EXPECT_LT(seconds, 30.0) << "setting up 100,000 placed particles took " << seconds << " s";
   EXPECT_GT(level.stability().rayleigh_time, 0.0);
+}
+
+// ---- a damaged [initial] file (issue 13; found by fuzzing, tests/fuzz/fuzz_initial) ----------
+
+namespace {
+
+struct InitialParticle {
+  Vec3 x, v, omega;
+  double radius = 2e-3;
+  int64_t id = 0;
+};
+
+// An [initial] snapshot of `ps` (one dataset `short_radius` entry shorter when asked).
+fs::path write_initial(const std::vector<InitialParticle>& ps, bool short_radius = false) {
+  const fs::path f = fs::temp_directory_path() / ("mlcg_initial_" + std::to_string(::getpid()) + ".h5");
+  std::vector<Vec3> x, v, w;
+  std::vector<double> r;
+  std::vector<int64_t> id;
+  for (const auto& p : ps) {
+    x.push_back(p.x);
+    v.push_back(p.v);
+    w.push_back(p.omega);
+    r.push_back(p.radius);
+    id.push_back(p.id);
+  }
+  if (short_radius) r.pop_back();
+  io::H5Writer out(f);
+  out.write_vec3("position", x);
+  out.write_vec3("velocity", v);
+  out.write_vec3("omega", w);
+  out.write("radius", r);
+  out.write("id", id);
+  out.commit();
+  return f;
+}
+
+// The quickstart hopper started from `file`: "" when it sets up, else the refusal.
+std::string start_from(const fs::path& file) {
+  auto cs = load("quickstart/case.toml");
+  cs.initial = config::InitialSpec{file.string(), "beads", {"case.toml", 7}};
+  try {
+    Level level(cs, quiet());
+    level.step_once();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(InitialFile, DamagedSnapshotsAreRefusedBeforeStep1NamingTheParticle) {
+  const InitialParticle a{{0.0, 0.0, 0.1}, {}, {}, 2e-3, 0}, b{{0.01, 0.0, 0.1}, {}, {}, 2e-3, 1};
+  EXPECT_EQ(start_from(write_initial({a, b})), "");
+  struct Bad {
+    std::vector<InitialParticle> ps;
+    bool short_radius;
+    std::string expect;
+  };
+  auto far = b, nan = b, flat = b, twin = b;
+  far.x.z = -7.07421e238;  // what the fuzzer found: a sign and exponent flip, UB in the overlap check's hash
+  nan.v.y = std::nan("");
+  flat.radius = 0.0;
+  twin.id = 0;
+  const Bad bad[] = {
+      {{a, far}, false, "particle 1 (id 1): its centre (0.01, 0, -7.07421e+238) m lies outside the domain"},
+      {{a, nan}, false, "particle 1 (id 1): a position, velocity, omega or radius that is not a finite number"},
+      {{a, flat}, false, "particle 1 (id 1): radius 0 m; a radius is > 0"},
+      {{a, twin}, false, "id 0 is given to two particles"},
+      {{a, b}, true, "position, velocity, omega, radius and id have 2, 2, 2, 1 and 2 entries"},
+  };
+  for (const auto& c : bad) {
+    const fs::path f = write_initial(c.ps, c.short_radius);
+    const std::string msg = start_from(f);
+    EXPECT_NE(msg.find("case.toml:7: initial.file: " + f.string() + ": " + c.expect), std::string::npos) << msg;
+    fs::remove(f);
+  }
 }

@@ -1,5 +1,6 @@
 // File-output layer: atomic replacement, HDF5 round trips, XDMF series.
 #include <gtest/gtest.h>
+#include <hdf5.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -389,6 +390,38 @@ TEST_F(IoTest, H5CompressionRoundTripAndShrinks) {
     EXPECT_EQ(r.read_vec3("v")[49999], (Vec3{1, 2, 3}));
   }
   EXPECT_LT(fs::file_size(dir / "z.h5") * 4, fs::file_size(dir / "raw.h5"));
+}
+
+// What the fuzzer found (tests/fuzz/fuzz_level_checkpoint): a damaged dataset size made the reader
+// allocate 26 GB. A dataset whose data the file cannot hold is refused, naming it; data compressed as far
+// as deflate goes (all zeros) still reads.
+TEST_F(IoTest, H5DatasetClaimingMoreDataThanTheFileHoldsIsRefused) {
+  const fs::path p = dir / "claims.h5";
+  const hid_t f = H5Fcreate(p.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  const hsize_t dims[1] = {hsize_t{1} << 40}, chunk[1] = {1024};
+  const hid_t space = H5Screate_simple(1, dims, nullptr), dcpl = H5Pcreate(H5P_DATASET_CREATE);
+  H5Pset_chunk(dcpl, 1, chunk);
+  const hid_t ds = H5Dcreate2(f, "x", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+  ASSERT_GE(ds, 0);
+  H5Dclose(ds);
+  H5Pclose(dcpl);
+  H5Sclose(space);
+  H5Fclose(f);
+  const H5Reader r(p);
+  try {
+    r.read<double>("x");
+    FAIL() << "expected a refusal";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("x' claims 8796093022208 bytes of data, of which the file ("),
+              std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(p.string()), std::string::npos) << e.what();
+  }
+  const std::vector<double> zeros(1 << 21, 0.0);
+  H5Writer w(dir / "zeros.h5");
+  w.set_compression(true, 9);
+  w.write("z", zeros);
+  w.commit();
+  EXPECT_EQ(H5Reader(dir / "zeros.h5").read<double>("z").size(), zeros.size());
 }
 
 // ------------------------------------------------------------------ snapshot series

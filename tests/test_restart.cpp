@@ -1,11 +1,18 @@
 // Checkpoint and restart: N steps + restart + N steps equals 2N steps bit for
 // bit (same binary), through the real code path (checkpoint files on disk,
 // a new Level reading them), in a scene with insertion, an event, removal,
-// a probe and a cell grid all active across the checkpoint.
+// a probe and a cell grid all active across the checkpoint. A checkpoint of
+// another scene, or a damaged one, is refused before step 1 naming what differs.
 #include <gtest/gtest.h>
 
+#include <hdf5.h>
+
+#include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <functional>
+#include <type_traits>
+#include <vector>
 
 #include "io/h5.hpp"
 #include "scene_support.hpp"
@@ -190,4 +197,82 @@ TEST_F(Foreign, AnAddedProbeMeasuresFromTheRestartAndTheOthersAreKept) {
   EXPECT_NEAR(upper.front().t_end, restart_t + 1.0 / cs.probes[0].sample_rate, 1.5 * level.dt());
   ASSERT_GT(outlet.size(), old_rates.size());
   for (size_t k = 0; k < old_rates.size(); ++k) EXPECT_EQ(outlet[k].rate, old_rates[k]) << k;
+}
+
+// ---- a damaged checkpoint (issue 13; found by fuzzing, tests/fuzz/fuzz_level_checkpoint) --------
+
+namespace {
+
+template <class T>
+hid_t native() {
+  if constexpr (std::is_same_v<T, double>) return H5T_NATIVE_DOUBLE;
+  else if constexpr (std::is_same_v<T, int32_t>) return H5T_NATIVE_INT32;
+  else return H5T_NATIVE_INT64;
+}
+
+// Replaces dataset `name` of checkpoint `f` by `values` (`cols` per row), as a disk fault or an edit might.
+template <class T>
+void replace(const fs::path& f, const std::string& name, const std::vector<T>& values, hsize_t cols = 1) {
+  const hid_t file = H5Fopen(f.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  ASSERT_GE(H5Ldelete(file, name.c_str(), H5P_DEFAULT), 0) << name;
+  const hsize_t dims[2] = {values.size() / cols, cols};
+  const hid_t space = H5Screate_simple(cols == 1 ? 1 : 2, dims, nullptr);
+  const hid_t ds = H5Dcreate2(file, name.c_str(), native<T>(), space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (!values.empty()) {
+    ASSERT_GE(H5Dwrite(ds, native<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), 0);
+  }
+  H5Dclose(ds);
+  H5Sclose(space);
+  H5Fclose(file);
+}
+
+}  // namespace
+
+TEST_F(Foreign, DamagedCheckpointsAreRefusedNamingTheDataset) {
+  const fs::path good = dir / "checkpoint.h5", bad = dir / "damaged.h5";
+  io::H5Reader r(good);
+  const auto first = r.read<int32_t>("history/pairs/first");
+  const auto radius = r.read<double>("particles/radius");
+  const auto x = r.read<double>("particles/x");
+  const auto cuts = r.read<double>("decomposition/cuts_x");
+  ASSERT_GT(radius.size(), 3u);
+  ASSERT_EQ(r.read<double>("events/fired_at").size(), 1u);
+  struct Damage {
+    std::function<void(const fs::path&)> apply;
+    std::string expect;
+  };
+  auto nan_x = x;
+  nan_x[3 * 3 + 1] = std::nan("");
+  const std::vector<int32_t> cut_first(first.begin(), first.end() - 1);
+  const std::vector<double> cut_radius(radius.begin() + 1, radius.end());
+  const Damage damages[] = {
+      // what the fuzzer found: a heap overflow while the contact history was reordered
+      {[&](const fs::path& f) { replace(f, "history/pairs/first", cut_first); },
+       "history/pairs/first has " + std::to_string(first.size() - 1) + " entries, expected " +
+           std::to_string(first.size()) + " (one per particle, plus one)"},
+      {[&](const fs::path& f) { replace(f, "particles/radius", cut_radius); },
+       "particles/radius has " + std::to_string(radius.size() - 1) + " entries, expected " +
+           std::to_string(radius.size()) + " (one per particle)"},
+      {[&](const fs::path& f) { replace(f, "events/fired_at", std::vector<double>{}); },
+       "events/fired_at has 0 entries, expected 1 (one per event)"},
+      {[&](const fs::path& f) { replace(f, "particles/x", nan_x, 3); },
+       "particle 3 (id " + std::to_string(r.read<int64_t>("particles/id")[3]) +
+           ") has a value that is not a finite number"},
+      {[&](const fs::path& f) { replace(f, "decomposition/cuts_x", std::vector<double>(cuts.rbegin(), cuts.rend())); },
+       "decomposition/cuts_x is not an ascending list of finite numbers"},
+  };
+  for (const auto& d : damages) {
+    fs::copy_file(good, bad, fs::copy_options::overwrite_existing);
+    d.apply(bad);
+    LevelOptions o = quiet();
+    o.restart = bad;
+    std::string msg;
+    try {
+      Level level(cs, o);
+    } catch (const std::exception& e) {
+      msg = e.what();
+    }
+    EXPECT_NE(msg.find(bad.string() + ": " + d.expect + "; the checkpoint is damaged"), std::string::npos) << msg;
+  }
 }

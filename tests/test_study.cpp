@@ -408,6 +408,9 @@ TEST_F(Study, RefusesBadStudyFilesNamingFileLineAndKey) {
     std::string text, expect;
   };
   const std::string sweep = "[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\n\n[[sweep]]\nbase = \"mlcg.toml\"\n";
+  // A table header of 100,000 parts overflowed the TOML reader's stack (found by fuzzing, tests/fuzz/fuzz_study).
+  std::string deep = "a";
+  for (int k = 1; k < 100000; ++k) deep += ".a";
   const Bad bad[] = {
       {sweep + "key = \"coupling.intervall\"\nvalues = [1e-4]\n", "bad.toml:7: sweep[0].key"},
       {sweep + "key = \"levels.nosuch.alpha\"\nvalues = [2.0]\n", "'nosuch' selects no entry of levels"},
@@ -424,6 +427,8 @@ TEST_F(Study, RefusesBadStudyFilesNamingFileLineAndKey) {
       // the region rules, before anything runs: a region top 0.83 orifice diameters above the orifice
       {sweep + "key = \"coupling.regions[0].max\"\nvalues = [[0.04, 0.04, 0.02]]\n",
        "coupling.regions[0].max: the region's top (its boundary surface"},
+      {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\n[" + deep + "]\n",
+       "bad.toml:4: a dotted key or table header of more than 64 parts"},
   };
   for (const auto& b : bad) {
     std::ofstream(kDir / "cases" / "bad.toml") << b.text;

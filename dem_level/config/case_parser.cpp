@@ -379,6 +379,10 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   return spec;
 }
 
+void check_toml_text(std::string_view toml_text, const std::string& path_for_messages) {
+  scan_text(Doc{path_for_messages, folder_of(path_for_messages)}, toml_text);
+}
+
 CaseSpec load_case(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;

@@ -25,4 +25,10 @@ CaseSpec load_case(const std::string& path);
 // used in messages and CaseSpec::path; its folder becomes CaseSpec::dir.
 CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_messages);
 
+// Refuses TOML text the TOML reader cannot take safely, before it reads it (every TOML file MLCG reads
+// goes through here): a line of more than 65,536 characters, a dotted key or table header of more than
+// 64 parts (toml++ nests them without a depth limit and overflows the stack). Throws CaseError
+// "FILE:LINE: what is wrong; what is allowed".
+void check_toml_text(std::string_view toml_text, const std::string& path_for_messages);
+
 }  // namespace mlcg::config

@@ -54,7 +54,7 @@ class Scanner {
     after_dot_ = false;
     if (parts_ > kMaxKeyParts)
       fail(doc_, line_, "", "a dotted key or table header of more than " + std::to_string(kMaxKeyParts) +
-                                " parts; a case nests tables at most a few deep (e.g. [[coupling.regions]])");
+                                " parts; MLCG's files nest tables at most a few deep (e.g. [[coupling.regions]])");
   }
 
   void end_line() {

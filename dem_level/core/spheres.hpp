@@ -70,7 +70,13 @@ class SphereHash {
   }
 
  private:
-  int64_t cell(double c) const { return static_cast<int64_t>(std::floor(c * inv_)); }
+  // Saturates far outside +-2^52 cells (and NaN, at the low end): a position far off, or a cell tiny against
+  // it, must not overflow the conversion; such spheres only share a cell.
+  int64_t cell(double c) const {
+    constexpr double kMax = 4503599627370496.0;  // 2^52
+    const double q = std::floor(c * inv_);
+    return q >= -kMax && q <= kMax ? static_cast<int64_t>(q) : q > 0.0 ? int64_t{1} << 52 : -(int64_t{1} << 52);
+  }
   static int64_t key(int64_t a, int64_t b, int64_t c) {
     return ((a & 0x1FFFFF) << 42) | ((b & 0x1FFFFF) << 21) | (c & 0x1FFFFF);
   }

@@ -12,6 +12,7 @@ namespace mlcg::coupling {
 
 namespace {
 constexpr int64_t kStopCheckMs = 100;  // longest poll between looks at ClientOptions::stop
+constexpr double kLongestWait = 1e9;   // [s]: some 30 years
 
 std::string seconds(double s) {
   std::string t = std::to_string(s);
@@ -42,7 +43,11 @@ void Client::send(const bus::Envelope& env) {
 }
 
 std::string Client::wait_for(int want, const std::string& what, bool heartbeats, double sim_time, uint64_t step) {
-  const auto span = [](double s) { return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s)); };
+  // A Welcome (or case) may say 1e300 s: beyond kLongestWait it means "for ever", and the conversion to
+  // the clock's integer ticks must not overflow.
+  const auto span = [](double s) {
+    return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::min(s, kLongestWait)));
+  };
   auto deadline = Clock::now() + span(opt_.timeout);
   const auto interrupted = [&] {
     // What is queued may have nobody to go to (a coupler that never came): the exit must not wait for it.

@@ -144,4 +144,27 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
   return g;
 }
 
+std::vector<GridLink> links_of(const bus::Welcome& w) {
+  std::vector<GridLink> out;
+  for (int g = 0; g < w.grids_size(); ++g) {
+    const auto& grid = w.grids(g);
+    const bool coarse = grid.coarse_level() == w.level_index(), fine = grid.fine_level() == w.level_index();
+    if (coarse || fine) out.emplace_back(static_cast<uint32_t>(g), grid, coarse ? Role::Coarse : Role::Fine);
+  }
+  return out;
+}
+
+std::vector<const bus::GridCommands*> commands_of(const bus::IntervalCommands& c, const std::vector<GridLink>& links,
+                                                  const std::string& level) {
+  std::vector<const bus::GridCommands*> of(links.size(), nullptr);
+  for (const auto& g : c.grids()) {
+    const auto it = std::find_if(links.begin(), links.end(), [&](const GridLink& l) { return l.index() == g.grid(); });
+    if (it == links.end())
+      throw std::invalid_argument("the coupler sent commands for grid " + std::to_string(g.grid()) +
+                                  ", in which level '" + level + "' takes no part");
+    of[static_cast<size_t>(it - links.begin())] = &g;
+  }
+  return of;
+}
+
 }  // namespace mlcg::coupling

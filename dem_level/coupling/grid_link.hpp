@@ -12,6 +12,7 @@
 // (those marked collective communicate). Every rank builds the same GridStats
 // except for the occupants, which are gathered on rank 0, the rank that sends.
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "bus/coupling_grid.hpp"
@@ -95,5 +96,14 @@ class GridLink {
   double removed_ = 0.0, removed_mass_ = 0.0;  // this rank's, this interval
   std::vector<double> returned_;               // per face, this rank's, this interval [kg]
 };
+
+// The grids of the coupler's Welcome in which the welcomed level (Welcome.level_index) takes part, each with
+// its role there, in Welcome order. Throws std::invalid_argument naming the grid when one is inconsistent.
+std::vector<GridLink> links_of(const bus::Welcome& w);
+
+// The commands of interval k for each of `links` (null where the coupler sent none), in link order. Throws
+// std::invalid_argument on commands for a grid in which level `level` takes no part.
+std::vector<const bus::GridCommands*> commands_of(const bus::IntervalCommands& c, const std::vector<GridLink>& links,
+                                                  const std::string& level);
 
 }  // namespace mlcg::coupling

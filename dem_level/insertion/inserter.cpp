@@ -65,7 +65,8 @@ void Inserter::nearby(const Particles& p, const Vec3& lo, const Vec3& hi, double
 std::optional<std::vector<ParticleInit>> Inserter::place_batch(const std::vector<Sphere>& obstacles, double reach,
                                                                const Vec3& lo, const Vec3& hi, const WallSet& walls,
                                                                std::mt19937_64& rng, int64_t& next_id,
-                                                               const std::function<bool()>& stop) {
+                                                               const std::function<bool()>& stop,
+                                                               const std::function<void(int64_t, int64_t)>& progress) {
   // How many particles this batch asks for: the rate's share up to the batch end, plus carried ones.
   int64_t due_total = prm_.target;
   if (prm_.rate > 0.0)
@@ -84,6 +85,7 @@ std::optional<std::vector<ParticleInit>> Inserter::place_batch(const std::vector
   int64_t unplaced = 0;
   for (int64_t k = 0; k < want; ++k) {
     if (stop && stop()) return std::nullopt;
+    if (progress && k > 0 && k % kProgressEvery == 0) progress(k, want);
     const double r = draw_radius(rng);
     bool ok = false;
     Vec3 x;

@@ -75,11 +75,14 @@ class Inserter {
   // SSI for this batch against `obstacles`; returns the placed particles (ids from next_id).
   // nullopt when `stop` turned true before the batch was done (a signal: one batch of a large count
   // without a rate can take hours); the state, rng and next_id are then part-way through the batch:
-  // the caller puts back the copies it kept.
+  // the caller puts back the copies it kept. `progress(tried, wanted)` is called every kProgressEvery
+  // particles, so the caller can show that a long batch moves.
+  static constexpr int64_t kProgressEvery = 4096;
   std::optional<std::vector<ParticleInit>> place_batch(const std::vector<Sphere>& obstacles, double reach,
                                                        const Vec3& lo, const Vec3& hi, const WallSet& walls,
                                                        std::mt19937_64& rng, int64_t& next_id,
-                                                       const std::function<bool()>& stop = {});
+                                                       const std::function<bool()>& stop = {},
+                                                       const std::function<void(int64_t, int64_t)>& progress = {});
   // Stop inserting: pending particles and those never requested count as failed.
   void finish();
   // The run ends: particles still waiting for a place count as failed.

@@ -278,6 +278,7 @@ H5Reader::H5Reader(fs::path path) : path_(std::move(path)) {
   silence_hdf5();
   std::error_code ec;
   if (!fs::is_regular_file(path_, ec)) throw std::runtime_error("H5Reader: no such file '" + path_.string() + "'");
+  file_bytes_ = fs::file_size(path_, ec);
   Hid fapl(make_fapl(), H5Pclose);
   file_ = H5Fopen(path_.c_str(), H5F_ACC_RDONLY, fapl);
   if (file_ < 0) fail("H5Reader: cannot open '" + path_.string() + "' as HDF5");
@@ -287,7 +288,9 @@ H5Reader::~H5Reader() {
   if (file_ >= 0) H5Fclose(file_);
 }
 
-H5Reader::H5Reader(H5Reader&& o) noexcept : path_(std::move(o.path_)), file_(o.file_) { o.file_ = -1; }
+H5Reader::H5Reader(H5Reader&& o) noexcept : path_(std::move(o.path_)), file_(o.file_), file_bytes_(o.file_bytes_) {
+  o.file_ = -1;
+}
 
 std::string H5Reader::where(const std::string& obj) const { return quote_object(path_, obj); }
 
@@ -321,6 +324,19 @@ std::int64_t H5Reader::open_dataset(const std::string& dataset) const {
   return ds;
 }
 
+void H5Reader::check_stored(std::int64_t ds, const std::string& dataset, std::uint64_t bytes) const {
+  if (bytes == 0) return;
+  // Its data must be in the file: all of it when stored plain, at least 1/1100 of it compressed (deflate
+  // packs at most 1032:1), and never more than the file's size. A damaged size field may claim terabytes.
+  const std::uint64_t stored = H5Dget_storage_size(ds);
+  Hid dcpl(check(H5Dget_create_plist(ds), "H5Dget_create_plist"), H5Pclose);
+  const double most = H5Pget_nfilters(dcpl) > 0 ? 1100.0 * static_cast<double>(stored) : static_cast<double>(stored);
+  if (stored > file_bytes_ || static_cast<double>(bytes) > most)
+    throw std::runtime_error("H5Reader: dataset " + where(dataset) + " claims " + std::to_string(bytes) +
+                             " bytes of data, of which the file (" + std::to_string(file_bytes_) + " bytes) stores " +
+                             std::to_string(stored) + "; the file is damaged or cut short");
+}
+
 std::vector<std::uint64_t> H5Reader::shape(const std::string& dataset) const {
   Hid ds(open_dataset(dataset), H5Dclose);
   Hid space(check(H5Dget_space(ds), "H5Dget_space"), H5Sclose);
@@ -345,6 +361,7 @@ std::vector<T> H5Reader::read(const std::string& dataset) const {
   Hid space(check(H5Dget_space(ds), "H5Dget_space"), H5Sclose);
   const hssize_t n = H5Sget_simple_extent_npoints(space);
   if (n < 0) fail("H5Reader: cannot size " + where(dataset));
+  check_stored(ds, dataset, static_cast<std::uint64_t>(n) * sizeof(T));
   std::vector<T> out(static_cast<size_t>(n));
   if (n > 0 && H5Dread(ds, mem_type<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0)
     fail("H5Reader: cannot read " + where(dataset));
@@ -417,6 +434,9 @@ std::string H5Reader::attr_string(const std::string& obj, const std::string& nam
     H5free_memory(s);
     return out;
   }
+  if (H5Tget_size(type) > file_bytes_)  // a damaged size field
+    throw std::runtime_error("H5Reader: attribute '" + name + "' on " + where(obj) + " claims a string of " +
+                             std::to_string(H5Tget_size(type)) + " bytes, more than the file holds");
   std::string buf(H5Tget_size(type), '\0');
   if (H5Aread(a, type, buf.data()) < 0) fail("H5Reader: cannot read attribute '" + name + "' on " + where(obj));
   buf.resize(std::strlen(buf.c_str()));  // drop null padding / terminator

@@ -122,9 +122,12 @@ class H5Reader {
   void read_attr_number(const std::string& obj, const std::string& name, bool want_float,
                         int want_sign, std::int64_t mem_type, void* out) const;
   std::string where(const std::string& obj) const;
+  // Refuses a dataset of `bytes` of data that the file cannot hold (a damaged size field).
+  void check_stored(std::int64_t ds, const std::string& dataset, std::uint64_t bytes) const;
 
   std::filesystem::path path_;
   std::int64_t file_ = -1;
+  std::uint64_t file_bytes_ = 0;
 };
 
 }  // namespace mlcg::io

@@ -124,7 +124,8 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
   w.write("decomposition/cuts_y", dec_.cuts()[1]);
   w.write("decomposition/cuts_z", dec_.cuts()[2]);
   std::vector<double> opens(all_open.size() / sizeof(double));
-  std::memcpy(opens.data(), all_open.data(), all_open.size());
+  // Guarded: a scene without probes sends nothing, and memcpy(nullptr, ..., 0) is undefined.
+  if (!opens.empty()) std::memcpy(opens.data(), all_open.data(), opens.size() * sizeof(double));
   w.write("probes/open_mass_per_rank", opens);
 
   write_scene_state(w);

@@ -89,7 +89,8 @@ void Level::insert_due(double t) {
                           reinterpret_cast<const char*>(mine.data() + mine.size()));
     const std::vector<char> all = comm_.allgather(buf);
     std::vector<Sphere> obstacles(all.size() / sizeof(Sphere));
-    std::memcpy(obstacles.data(), all.data(), obstacles.size() * sizeof(Sphere));
+    // Guarded: with no obstacles (an empty scene) data() may be null, and memcpy(nullptr, ..., 0) is undefined.
+    if (!obstacles.empty()) std::memcpy(obstacles.data(), all.data(), obstacles.size() * sizeof(Sphere));
     const auto before = in.state();
     const auto rng_before = rng_;
     const int64_t id_before = next_id_;

@@ -116,7 +116,8 @@ void Level::connect_coupler() {
 
   c->steps = whole_steps(w.coupling_interval(), dt_);
   if (c->steps == 0)
-    throw std::runtime_error(fmt::format("level '{}': the coupler's interval {} s is not a whole multiple of dt = {} s",
+    throw std::runtime_error(fmt::format("level '{}': the coupler's interval {} s is not a whole number of steps of "
+                                         "dt = {} s (1 to 2^63)",
                                          lvl_.name, w.coupling_interval(), dt_));
   if (w.start_interval() != start)
     throw std::runtime_error(fmt::format("level '{}': the coupler starts at interval {}, this level at {}", lvl_.name,
@@ -127,18 +128,15 @@ void Level::connect_coupler() {
   c->worst_overlap = coupling_restored_.worst_insert_overlap;
   c->worst_wall_overlap = coupling_restored_.worst_insert_wall_overlap;
   c->outside_walls = comm_.rank() == 0 ? coupling_restored_.inserted_outside_walls : 0;
-  for (int g = 0; g < w.grids_size(); ++g) {
-    const auto& grid = w.grids(g);
-    const bool coarse = grid.coarse_level() == w.level_index(), fine = grid.fine_level() == w.level_index();
-    if (!coarse && !fine) continue;
-    try {
-      c->grids.emplace_back(static_cast<uint32_t>(g), grid, coarse ? coupling::Role::Coarse : coupling::Role::Fine);
-    } catch (const std::invalid_argument& e) {
-      throw std::runtime_error(fmt::format("level '{}': the coupler's {}", lvl_.name, e.what()));
-    }
-    const auto& geo = c->grids.back().geometry();
-    log_->info("coupling grid {}: {} level, {} cells, {} boundary faces at z = {} m", g,
-               coupling::to_string(c->grids.back().role()), geo.cells(), geo.faces(), geo.top());
+  try {
+    c->grids = coupling::links_of(w);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(fmt::format("level '{}': the coupler's {}", lvl_.name, e.what()));
+  }
+  for (const auto& link : c->grids) {
+    const auto& geo = link.geometry();
+    log_->info("coupling grid {}: {} level, {} cells, {} boundary faces at z = {} m", link.index(),
+               coupling::to_string(link.role()), geo.cells(), geo.faces(), geo.top());
   }
   if (c->grids.empty()) log_->warn("level '{}' takes part in none of the coupler's {} grids", lvl_.name, w.grids_size());
   c->material = cs_.insertions.empty() ? 0 : mt_.index_of(cs_.insertions.front().material);
@@ -166,13 +164,11 @@ void Level::coupling_begin_step() {
   c.checkpoint = cmd.checkpoint();
   c.checkpoint_path = cmd.checkpoint_path();
   c.stop_reason = cmd.stop_reason();
-  std::vector<const bus::GridCommands*> of(c.grids.size(), nullptr);
-  for (const auto& g : cmd.grids()) {
-    const auto it = std::find_if(c.grids.begin(), c.grids.end(), [&](const auto& l) { return l.index() == g.grid(); });
-    if (it == c.grids.end())
-      throw CouplingStop(fmt::format("the coupler sent commands for grid {}, in which level '{}' takes no part",
-                                     g.grid(), lvl_.name));
-    of[static_cast<size_t>(it - c.grids.begin())] = &g;
+  std::vector<const bus::GridCommands*> of;
+  try {
+    of = coupling::commands_of(cmd, c.grids, lvl_.name);
+  } catch (const std::invalid_argument& e) {
+    throw CouplingStop(e.what());
   }
   PhaseTimer t(times_.coupling);
   const size_t born_from = p_.n_local();  // ghosts are detached before any insertion: local = all

@@ -14,6 +14,7 @@
 #include "io/grid_series.hpp"
 #include "io/h5.hpp"
 #include "io/snapshot_series.hpp"
+#include "level/initial_state.hpp"
 #include "level/level.hpp"
 #include "scene/walls_from_case.hpp"
 
@@ -67,6 +68,7 @@ void Level::setup() {
   }
   log_ = std::make_shared<spdlog::logger>("dem_level", sinks.begin(), sinks.end());
   log_->set_pattern("[%H:%M:%S] %v");
+  log_->flush_on(spdlog::level::info);  // `tail -f log.txt` shows each line as it happens (they are seconds apart)
   if (comm_.rank() != 0) log_->set_level(spdlog::level::err);
 
   lvl_ = cs_.levels.front();
@@ -339,25 +341,10 @@ void Level::setup_measurements() {
 
 void Level::load_initial_state(std::vector<ParticleKind>& kinds, std::vector<PlacedParticle>& placed, bool add) {
   const auto& in = *cs_.initial;
-  io::H5Reader r(in.file);
-  const auto x = r.read_vec3("position");
-  const auto v = r.read_vec3("velocity");
-  const auto w = r.read_vec3("omega");
-  const auto rad = r.read<double>("radius");
-  const auto ids = r.read<int64_t>("id");
-  if (v.size() != x.size() || w.size() != x.size() || rad.size() != x.size() || ids.size() != x.size())
-    throw std::runtime_error(in.file + ": position, velocity, omega, radius and id differ in length");
   const int mat = mt_.index_of(in.material);
+  const auto list = read_initial_particles(in, cs_.domain, mat, mt_.material(mat).density);
   ParticleKind kind{mat, std::numeric_limits<double>::max(), 0.0, 0.0};
-  for (size_t i = 0; i < x.size(); ++i) {
-    ParticleInit pi;
-    pi.id = ids[i];
-    pi.material = mat;
-    pi.radius = rad[i];
-    pi.density = mt_.material(mat).density;
-    pi.x = x[i];
-    pi.v = v[i];
-    pi.omega = w[i];
+  for (const ParticleInit& pi : list) {
     kind.r_min = std::min(kind.r_min, pi.radius);
     kind.r_max = std::max(kind.r_max, pi.radius);
     kind.speed = std::max(kind.speed, norm(pi.v));
@@ -367,8 +354,8 @@ void Level::load_initial_state(std::vector<ParticleKind>& kinds, std::vector<Pla
     next_id_ = std::max(next_id_, pi.id + 1);
     if (add && dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
-  if (!x.empty()) kinds.push_back(kind);
-  log_->info("initial state: {} particles from {}", x.size(), in.file);
+  if (!list.empty()) kinds.push_back(kind);
+  log_->info("initial state: {} particles from {}", list.size(), in.file);
 }
 
 void Level::add_particle(const ParticleInit& pi) {

@@ -144,7 +144,10 @@ void Comm::exchange(const std::vector<int>& peers, const std::vector<std::vector
 }
 
 void ByteReader::copy(void* dst, size_t n) {
-  if (p_ + n > end_) throw std::runtime_error("ByteReader: buffer ends early (corrupt exchange)");
+  // Compared as sizes: forming p_ + n beyond the buffer's end is itself undefined.
+  if (n > static_cast<size_t>(end_ - p_)) throw std::runtime_error("ByteReader: buffer ends early (corrupt exchange)");
+  // memcpy needs valid pointers even for 0 bytes; an empty vector's data() (no contacts) may be null.
+  if (n == 0) return;
   std::memcpy(dst, p_, n);
   p_ += n;
 }

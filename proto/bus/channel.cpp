@@ -97,9 +97,10 @@ bool Channel::send(const Envelope& env, const std::string& peer) {
       // The coupler's loop must never wait on one peer: a full queue fails at the routing frame (EAGAIN).
       if (!sock_.send(zmq::buffer(peer), zmq::send_flags::sndmore | zmq::send_flags::dontwait)) return false;
       sock_.send(zmq::buffer(bytes), zmq::send_flags::dontwait);
-      return true;
+    } else {
+      sock_.send(zmq::buffer(bytes), zmq::send_flags::none);
     }
-    sock_.send(zmq::buffer(bytes), zmq::send_flags::none);
+    last_send_bytes_ = bytes.size();
     return true;
   } catch (const zmq::error_t& e) {
     throw std::runtime_error("bus: cannot send " + std::string(body_name(env)) +
@@ -125,6 +126,7 @@ std::optional<Incoming> Channel::receive(std::chrono::milliseconds timeout) {
       in.error = "the CURVE key issued to '" + std::string(uid) + "' was used by '" + in.peer + "'";
       return in;
     }
+  in.bytes = parts.back().size();
   Decoded d = decode(parts.back().data(), parts.back().size(), max_bytes_);
   in.env = std::move(d.env);
   in.error = std::move(d.error);

@@ -54,6 +54,7 @@ struct Incoming {
   std::string peer;   // ROUTER: the sender's identity; DEALER: empty
   Envelope env;
   std::string error;  // set when the message was refused
+  size_t bytes = 0;   // the message frame's size on the wire
   bool ok() const { return error.empty(); }
 };
 
@@ -72,6 +73,8 @@ class Channel {
   bool send(const Envelope& env, const std::string& peer = {});
   // Waits up to `timeout` for one message; nullopt when none arrived.
   std::optional<Incoming> receive(std::chrono::milliseconds timeout);
+  // The message frame's size of the last send that returned true (for the bus load per level).
+  size_t last_send_bytes() const { return last_send_bytes_; }
 
   // The endpoint actually bound (tcp://...:0 resolves to a port).
   std::string endpoint() const;
@@ -83,6 +86,7 @@ class Channel {
   std::string identity_;
   size_t max_bytes_;
   zmq::socket_t sock_;
+  size_t last_send_bytes_ = 0;
 };
 
 }  // namespace mlcg::bus
