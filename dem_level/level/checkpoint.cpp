@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <sstream>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -30,6 +31,63 @@ ContactHistory read_history(const io::H5Reader& r, const std::string& g) {
   h.key = r.read<int64_t>(g + "/key");
   h.value = r.read_vec3(g + "/value");
   return h;
+}
+
+// A checkpoint cut short, edited or damaged on disk: refused before anything of it is used.
+[[noreturn]] void damaged(const io::H5Reader& r, const std::string& what) {
+  throw std::runtime_error(fmt::format("{}: {}; the checkpoint is damaged: continue from an intact one or start the "
+                                       "run afresh",
+                                       r.path().string(), what));
+}
+
+void check_length(const io::H5Reader& r, const std::string& dataset, size_t got, size_t want, const std::string& per) {
+  if (got != want) damaged(r, fmt::format("{} has {} entries, expected {} ({})", dataset, got, want, per));
+}
+
+bool finite3(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// Every particle array as long as particles/x, every value finite, radii and masses > 0.
+void check_particles(const io::H5Reader& r, const Particles& p) {
+  const size_t n = p.x.size();
+  const std::pair<const char*, size_t> lengths[] = {
+      {"v", p.v.size()},         {"f", p.f.size()},           {"omega", p.omega.size()},
+      {"torque", p.torque.size()}, {"radius", p.radius.size()}, {"mass", p.mass.size()},
+      {"inv_mass", p.inv_mass.size()}, {"inv_inertia", p.inv_inertia.size()}, {"id", p.id.size()},
+      {"material", p.material.size()}};
+  for (const auto& [name, got] : lengths) check_length(r, std::string("particles/") + name, got, n, "one per particle");
+  for (size_t i = 0; i < n; ++i) {
+    const bool finite = finite3(p.x[i]) && finite3(p.v[i]) && finite3(p.f[i]) && finite3(p.omega[i]) &&
+                        finite3(p.torque[i]) && std::isfinite(p.inv_mass[i]) && std::isfinite(p.inv_inertia[i]);
+    if (!finite) damaged(r, fmt::format("particle {} (id {}) has a value that is not a finite number", i, p.id[i]));
+    if (!(p.radius[i] > 0.0 && std::isfinite(p.radius[i]) && p.mass[i] > 0.0 && std::isfinite(p.mass[i])))
+      damaged(r, fmt::format("particle {} (id {}) has radius {} m and mass {} kg; both are > 0", i, p.id[i],
+                             p.radius[i], p.mass[i]));
+  }
+}
+
+// Compressed rows: first[0] = 0, never decreasing, first[n] = the number of keys and values.
+void check_history(const io::H5Reader& r, const std::string& g, const ContactHistory& h, size_t n) {
+  check_length(r, g + "/first", h.first.size(), n + 1, "one per particle, plus one");
+  bool rows = h.first.front() == 0;
+  for (size_t i = 0; i < n && rows; ++i) rows = h.first[i + 1] >= h.first[i];
+  if (!rows || static_cast<size_t>(h.first.back()) != h.key.size())
+    damaged(r, g + "/first is not a list of row starts from 0 to the number of keys");
+  check_length(r, g + "/value", h.value.size(), h.key.size(), "one per key");
+  for (const Vec3& v : h.value)
+    if (!finite3(v)) damaged(r, g + "/value has a value that is not a finite number");
+}
+
+// Per axis: the grid's count of boxes plus one cut, finite and ascending.
+void check_cuts(const io::H5Reader& r, const std::array<std::vector<double>, 3>& cuts,
+                const std::vector<int32_t>& grid) {
+  for (size_t a = 0; a < 3; ++a) {
+    const std::string name = std::string("decomposition/cuts_") + "xyz"[a];
+    check_length(r, name, cuts[a].size(), static_cast<size_t>(grid[a]) + 1,
+                 "one per box of the decomposition grid, plus one");
+    for (size_t k = 0; k < cuts[a].size(); ++k)
+      if (!std::isfinite(cuts[a][k]) || (k > 0 && !(cuts[a][k] > cuts[a][k - 1])))
+        damaged(r, name + " is not an ascending list of finite numbers");
+  }
 }
 }  // namespace
 
@@ -124,8 +182,7 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
   w.write("decomposition/cuts_y", dec_.cuts()[1]);
   w.write("decomposition/cuts_z", dec_.cuts()[2]);
   std::vector<double> opens(all_open.size() / sizeof(double));
-  // Guarded: a scene without probes sends nothing, and memcpy(nullptr, ..., 0) is undefined.
-  if (!opens.empty()) std::memcpy(opens.data(), all_open.data(), opens.size() * sizeof(double));
+  if (!opens.empty()) std::memcpy(opens.data(), all_open.data(), all_open.size());
   w.write("probes/open_mass_per_rank", opens);
 
   write_scene_state(w);
@@ -289,6 +346,7 @@ void Level::load_particles(const io::H5Reader& r, const SceneMap& map) {
   p.inv_inertia = r.read<double>("particles/inv_inertia");
   p.id = r.read<int64_t>("particles/id");
   p.material = r.read<int32_t>("particles/material");
+  check_particles(r, p);
   for (auto& m : p.material) {  // the case may list the same materials in another order
     const int to = m >= 0 && static_cast<size_t>(m) < map.material_of_saved.size() ? map.material_of_saved[m] : -1;
     if (to < 0)
@@ -296,15 +354,23 @@ void Level::load_particles(const io::H5Reader& r, const SceneMap& map) {
                                            r.path().string(), m));
     m = to;
   }
+  ContactHistory pairs = read_history(r, "history/pairs"), walls = read_history(r, "history/walls");
+  check_history(r, "history/pairs", pairs, p.x.size());
+  check_history(r, "history/walls", walls, p.x.size());
   const auto grid = r.read<int32_t>("decomposition/grid");
-  const bool same_grid = grid.size() == 3 && grid[0] == dec_.grid()[0] && grid[1] == dec_.grid()[1] &&
+  check_length(r, "decomposition/grid", grid.size(), 3, "one per axis");
+  const bool same_grid = grid[0] == dec_.grid()[0] && grid[1] == dec_.grid()[1] &&
                          grid[2] == dec_.grid()[2];
-  if (same_grid)
-    dec_.set_cuts({r.read<double>("decomposition/cuts_x"), r.read<double>("decomposition/cuts_y"),
-                   r.read<double>("decomposition/cuts_z")});
-  else
+  if (same_grid) {
+    const std::array<std::vector<double>, 3> cuts{r.read<double>("decomposition/cuts_x"),
+                                                  r.read<double>("decomposition/cuts_y"),
+                                                  r.read<double>("decomposition/cuts_z")};
+    check_cuts(r, cuts, grid);
+    dec_.set_cuts(cuts);
+  } else {
     log_->info("{}: written on a {} x {} x {} grid, continuing on {} x {} x {}", r.path().string(), grid[0], grid[1],
                grid[2], dec_.grid()[0], dec_.grid()[1], dec_.grid()[2]);
+  }
   std::vector<int32_t> mine;
   for (size_t i = 0; i < p.x.size(); ++i)
     if (dec_.owner(p.x[i]) == comm_.rank()) mine.push_back(static_cast<int32_t>(i));
@@ -312,8 +378,8 @@ void Level::load_particles(const io::H5Reader& r, const SceneMap& map) {
   p.permute(mine);  // also sets the local count
   p_ = std::move(p);
 
-  pair_hist_ = read_history(r, "history/pairs");
-  wall_hist_ = read_history(r, "history/walls");
+  pair_hist_ = std::move(pairs);
+  wall_hist_ = std::move(walls);
   pair_hist_.permute(mine, mine.size());
   wall_hist_.permute(mine, mine.size());
   history_loaded_ = true;
@@ -342,6 +408,8 @@ void Level::restore_scene_state(const io::H5Reader& r, const SceneMap& map) {
   const auto fired = r.read<uint8_t>("events/fired");
   const auto fired_at = r.read<double>("events/fired_at");
   const auto next_check = r.read<double>("events/next_check");
+  check_length(r, "events/fired_at", fired_at.size(), fired.size(), "one per event");
+  check_length(r, "events/next_check", next_check.size(), fired.size(), "one per event");
   for (size_t e = 0; e < events_.size(); ++e) {
     const int from = map.events[e];
     if (from < 0 || static_cast<size_t>(from) >= fired.size()) continue;  // added since: not fired yet
@@ -399,6 +467,7 @@ void Level::restore_probes(const io::H5Reader& r, const SceneMap& map) {
     pr.params().window_known = r.attr_int64(g, "window_known") != 0;
     const auto te = r.read<double>(g + "/t_end");
     const auto rate = r.read<double>(g + "/rate");
+    check_length(r, g + "/rate", rate.size(), te.size(), "one per sample time in " + g + "/t_end");
     s.samples.clear();
     for (size_t q = 0; q < te.size(); ++q) s.samples.push_back({te[q], rate[q]});
   }
@@ -423,6 +492,11 @@ void Level::restore_grids(const io::H5Reader& r, const SceneMap& map) {
     s.stress6 = r.read<double>(g + "/stress6");
     s.count = r.read<double>(g + "/count");
     s.momentum = r.read_vec3(g + "/momentum");
+    const size_t n = gr.grid.params().cells();
+    for (const auto& [name, got, per] : {std::tuple{"phi", s.phi.size(), 1}, {"mass", s.mass.size(), 1},
+                                         {"max_speed", s.max_speed.size(), 1}, {"count", s.count.size(), 1},
+                                         {"stress6", s.stress6.size(), 6}, {"momentum", s.momentum.size(), 1}})
+      check_length(r, g + "/" + name, got, static_cast<size_t>(per) * n, per == 1 ? "one per cell" : "6 per cell");
   }
 }
 

@@ -89,13 +89,21 @@ void Level::insert_due(double t) {
                           reinterpret_cast<const char*>(mine.data() + mine.size()));
     const std::vector<char> all = comm_.allgather(buf);
     std::vector<Sphere> obstacles(all.size() / sizeof(Sphere));
-    // Guarded: with no obstacles (an empty scene) data() may be null, and memcpy(nullptr, ..., 0) is undefined.
     if (!obstacles.empty()) std::memcpy(obstacles.data(), all.data(), obstacles.size() * sizeof(Sphere));
     const auto before = in.state();
     const auto rng_before = rng_;
     const int64_t id_before = next_id_;
+    // One batch of a large count without a rate can take minutes: say that it moves.
+    double last_line = wall_seconds();
+    const auto progress = [&](int64_t tried, int64_t wanted) {
+      const double now = wall_seconds();
+      if (now - last_line < cs_.time.progress_interval) return;
+      last_line = now;
+      log_->info("insertion '{}': batch {} has tried {} of {} particles", in.params().name, before.batch + 1, tried,
+                 wanted);
+    };
     const auto batch = in.place_batch(obstacles, 2.0 * r_max_, lo, hi, walls_, rng_, next_id_,
-                                      [this] { return stopping(); });
+                                      [this] { return stopping(); }, progress);
     // A signal reaches the ranks at different moments: all drop the batch together, and the state
     // (a checkpoint written on the way out) stays that before it.
     if (comm_.any(!batch)) {
