@@ -21,6 +21,7 @@ matplotlib is missing.
 """
 import csv
 import json
+import math
 import os
 import sys
 
@@ -58,14 +59,21 @@ def error_vs_time(plt, study, out):
                 label="variant (bar: 95 % interval of the error)")
     ax.plot([pts[i][0] for i in front], [pts[i][1] for i in front], "o--", color="C3", mfc="none", ms=12,
             zorder=3, label="Pareto front")
-    for v, (t, e) in zip(vs, pts):
+    # Labels of points that lie close together are stacked, not printed over one another.
+    placed = []
+    for i in sorted(range(len(vs)), key=lambda i: pts[i]):
+        v, (t, e) = vs[i], pts[i]
         text = v["label"] + (" (reference)" if v["name"] == study["reference"] else "")
-        ax.annotate(text, (t, e), textcoords="offset points", xytext=(6, 6), fontsize=8)
+        near = sum(1 for (t2, e2) in placed if abs(math.log(t / t2)) < 0.35 and abs(e - e2) < 1.5)
+        placed.append((t, e))
+        ax.annotate(text, (t, e), textcoords="offset points", xytext=(6, 6 + 11 * near), fontsize=8)
     ax.set_xscale("log")
     from matplotlib.ticker import FuncFormatter
     plain = FuncFormatter(lambda x, _: f"{x:g}")  # 20, not 2×10¹
+    # Minor ticks labelled only at 2 and 5 × 10^k: all eight crowd into one another over a decade.
+    sparse = FuncFormatter(lambda x, _: f"{x:g}" if round(x / 10 ** math.floor(math.log10(x))) in (2, 5) else "")
     ax.xaxis.set_major_formatter(plain)
-    ax.xaxis.set_minor_formatter(plain)
+    ax.xaxis.set_minor_formatter(sparse)
     ax.set_xlabel("wall time [s]")
     ax.set_ylabel("|error of ⟨ṁ⟩| against the reference [%]")
     ax.set_title(study.get("title") or "error against run time")
@@ -114,7 +122,15 @@ def pressure(plt, study, out):
         return
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     for r in p["runs"]:
-        t, v = series(r["grid_dir"], p["z"], p["window"])
+        try:
+            t, v = series(r["grid_dir"], p["z"], p["window"])
+        except SystemExit as e:  # the layer lies outside that run's grid
+            print(f"plot_study.py: {r['label']}: left out of {out}: {e}", file=sys.stderr)
+            continue
+        if len(v) and not any(x != 0.0 for x in v):  # a hierarchy whose finest region ends below the layer
+            print(f"plot_study.py: {r['label']}: left out of {out}: no particles of its level in the layer "
+                  f"(its region ends below it)", file=sys.stderr)
+            continue
         ax.plot(t, v, label=r["label"])
     lo, hi = p["layer"]
     ax.set_xlabel("time [s]")

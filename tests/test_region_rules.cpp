@@ -174,8 +174,13 @@ TEST(RegionRules, WarnsWhenTheCoarseLevelReliesOnTheCorrectionCells) {
   EXPECT_TRUE(has(r.warnings, "coupling.regions[0].cell_size: cell_size = 0.02 m is 2.50 coarse diameters"))
       << all(r.warnings);
   EXPECT_TRUE(has(r.notes, "D0 = 0.024 m, from lid 'lid' over cone 'funnel'")) << all(r.notes);
-  // its top, 1.67 D0 above the orifice: above the advised 1.1 D0
+  // its top, 1.67 D0 above the orifice: above the advised 1.1 D0, below the 2 D0 noted for about 1 %
   EXPECT_FALSE(has(r.warnings, "orifice diameters above the orifice")) << all(r.warnings);
+  EXPECT_TRUE(has(r.notes, "1.67 orifice diameters above the orifice (D0 = 0.024 m")) << all(r.notes);
+  EXPECT_TRUE(has(r.notes, "for about 1 % raise max z to 0.048 m")) << all(r.notes);
+  // two diameters up: no note about the height
+  const auto tall = rules_of(edited(quickstart(), "max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.06]"));
+  EXPECT_FALSE(has(tall.notes, "orifice diameters above the orifice")) << all(tall.notes);
   // the same top over a 38 mm orifice: 1.05 D0, allowed, below the advised height
   const auto low = rules_of(
       edited(quickstart(), "[coupling]", "[orifice]\ncenter = [0.0, 0.0, 0.0]\ndiameter = 0.038\n\n[coupling]"));
