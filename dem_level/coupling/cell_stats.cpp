@@ -24,9 +24,10 @@ CellStats::CellStats(const bus::CouplingGeometry& geo) : grid_(box_of(geo)) {
   }
 }
 
-void CellStats::sample(const Particles& p, const std::vector<double>& stress6, const Comm& comm) {
+void CellStats::sample(const Particles& p, const std::vector<double>& stress6, const Comm& comm,
+                       const std::vector<uint32_t>* in_box) {
   constexpr size_t K = CellGrid::kSums;
-  grid_.local_sample(p, stress6, sums_, maxs_);
+  grid_.local_sample(p, stress6, sums_, maxs_, in_box);
   if (!comm.serial()) {
     // Only the active cells' sums go over the wire.
     const size_t na = active_.size();

@@ -34,7 +34,9 @@ class CellStats {
   // Collective: one sample of this rank's particles, summed over all ranks.
   // stress6: the per-particle contact dyads of this step's force computation
   // (the force kernels fill them when asked for stress).
-  void sample(const Particles& p, const std::vector<double>& stress6, const Comm& comm);
+  // in_box: null, or the local particles that may lie in the grid's box (increasing order).
+  void sample(const Particles& p, const std::vector<double>& stress6, const Comm& comm,
+              const std::vector<uint32_t>* in_box = nullptr);
   // The means over the samples since the last call (every rank gets them); resets.
   CellMeans take();
   int64_t samples() const { return grid_.state().samples; }

@@ -138,7 +138,7 @@ void ControllerForces::apply_sides(Particles& p) const {
   }
 }
 
-void ControllerForces::apply(Particles& p) const {
+void ControllerForces::apply(Particles& p, const std::vector<uint32_t>* in_box) const {
   const size_t n = p.n_local();
   if (traction_on_) {
     const size_t m = near_valid_ ? near_.size() : n;
@@ -160,7 +160,9 @@ void ControllerForces::apply(Particles& p) const {
   }
   if (traction_on_ && !geo_.open_sides().empty()) apply_sides(p);
   if (accel_on_) {
-    for (size_t i = 0; i < n; ++i) {
+    const size_t m = in_box ? in_box->size() : n;
+    for (size_t q = 0; q < m; ++q) {
+      const size_t i = in_box ? (*in_box)[q] : q;
       const int c = geo_.locate(p.x[i]);
       if (c < 0) continue;
       p.f[i] += p.mass[i] * accel_[static_cast<size_t>(c)];

@@ -36,8 +36,9 @@ class ControllerForces {
   // Fine role, after a neighbour-list rebuild: the particles that may enter a faded column
   // before the next one (depth below D + band). Without a refresh apply() visits every particle.
   void refresh(const Particles& p, double band);
-  // Adds the forces to this rank's particles (p.f).
-  void apply(Particles& p) const;
+  // Adds the forces to this rank's particles (p.f). in_box: null, or the particles that may lie in
+  // the grid's box (the coarse role's accelerations visit only those).
+  void apply(Particles& p, const std::vector<uint32_t>* in_box = nullptr) const;
   bool active() const { return traction_on_ || accel_on_; }
 
   // Fade weight of a centre x (radius r) and its face; 0 and face -1 outside every faded column.

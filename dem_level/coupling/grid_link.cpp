@@ -47,6 +47,19 @@ std::vector<ParticleInit> GridLink::parse_inserts(const bus::GridCommands& c, in
   return out;
 }
 
+void GridLink::refresh(const Particles& p, double band) {
+  if (role_ == Role::Coarse) flux_.refresh(p, band);
+  else forces_.refresh(p, band);
+  in_box_.clear();
+  for (size_t i = 0; i < p.n_local(); ++i) {
+    const Vec3& x = p.x[i];
+    if (x.x >= lo_.x - band && x.x <= hi_.x + band && x.y >= lo_.y - band && x.y <= hi_.y + band &&
+        x.z >= lo_.z - band && x.z <= hi_.z + band)
+      in_box_.push_back(static_cast<uint32_t>(i));
+  }
+  in_box_valid_ = true;
+}
+
 void GridLink::count_removed(const Vec3& x, double mass) {
   removed_ += 1.0;
   removed_mass_ += mass;
@@ -122,7 +135,11 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
   }
   {  // both roles: the mass in the region, independent of the crossing counts (a mass check)
     double m[2] = {0.0, 0.0};  // in the region; out of it and due for removal at the next rebuild
-    for (size_t i = 0; i < p.n_local(); ++i) {
+    // The coarse role removes nothing: only the particles of its box can count.
+    const std::vector<uint32_t>* only = role_ == Role::Coarse ? box_list() : nullptr;
+    const size_t n = only ? only->size() : p.n_local();
+    for (size_t q = 0; q < n; ++q) {
+      const size_t i = only ? (*only)[q] : q;
       if (geo_.locate(p.x[i]) >= 0) m[0] += p.mass[i];
       else if (leaves(p.x[i])) m[1] += p.mass[i];
     }

@@ -49,10 +49,8 @@ class GridLink {
   // that do not fit the grid.
   void begin_interval(const bus::GridCommands* c, const Particles& p, const Comm& comm, uint64_t inserted,
                       double inserted_mass);
-  void refresh(const Particles& p, double band) {  // after a neighbour-list rebuild
-    if (role_ == Role::Coarse) flux_.refresh(p, band);
-    else forces_.refresh(p, band);
-  }
+  // After a neighbour-list rebuild (band: the skin; until the next rebuild no particle moves half of it).
+  void refresh(const Particles& p, double band);
   void after_drift(const Particles& p) {  // after the positions moved
     if (role_ == Role::Coarse) flux_.check(p);
   }
@@ -62,7 +60,7 @@ class GridLink {
     if (role_ == Role::Coarse) flux_.add_born(p.x[i], p.v[i], p.mass[i], p.radius[i]);
   }
   void add_forces(Particles& p) const {
-    if (forces_.active()) forces_.apply(p);
+    if (forces_.active()) forces_.apply(p, box_list());
   }
   // Fine role: a centre above the boundary surface or beside the box has left the region.
   bool leaves(const Vec3& x) const {
@@ -72,7 +70,7 @@ class GridLink {
   void count_removed(const Vec3& x, double mass);
   // Collective: one sample of the cell statistics.
   void sample(const Particles& p, const std::vector<double>& stress6, const Comm& comm) {
-    cells_.sample(p, stress6, comm);
+    cells_.sample(p, stress6, comm, box_list());
   }
   // Collective: the interval's statistics (the same on every rank). r_max: the
   // level's largest radius (the occupant slab reaches that far beyond the insertion slab).
@@ -82,6 +80,11 @@ class GridLink {
   const ControllerForces& forces() const { return forces_; }
 
  private:
+  // The particles within the band of the grid's box at the last refresh (null before one): only they
+  // can be in a cell before the next rebuild. A coarse level's region is a small part of it, and the
+  // per-step passes (accelerations, cell samples) would otherwise visit every particle.
+  const std::vector<uint32_t>* box_list() const { return in_box_valid_ ? &in_box_ : nullptr; }
+
   uint32_t index_;
   Role role_;
   bus::CouplingGeometry geo_;
@@ -95,6 +98,8 @@ class GridLink {
   double inserted_mass_ = 0.0;
   double removed_ = 0.0, removed_mass_ = 0.0;  // this rank's, this interval
   std::vector<double> returned_;               // per face, this rank's, this interval [kg]
+  std::vector<uint32_t> in_box_;
+  bool in_box_valid_ = false;
 };
 
 // The grids of the coupler's Welcome in which the welcomed level (Welcome.level_index) takes part, each with

@@ -28,11 +28,13 @@ int CellGrid::cell_of(const Vec3& x) const {
 }
 
 void CellGrid::local_sample(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
-                            std::vector<double>& max_speed) const {
+                            std::vector<double>& max_speed, const std::vector<uint32_t>* only) const {
   const size_t nc = prm_.cells();
   sums.assign(kSums * nc, 0.0);
   max_speed.assign(nc, 0.0);
-  for (size_t i = 0; i < p.n_local(); ++i) {
+  const size_t m = only ? only->size() : p.n_local();
+  for (size_t q = 0; q < m; ++q) {
+    const size_t i = only ? (*only)[q] : q;
     const int c = cell_of(p.x[i]);
     if (c < 0) continue;
     double* s = &sums[kSums * static_cast<size_t>(c)];

@@ -46,8 +46,10 @@ class CellGrid {
   // sums into this sample's cell values. stress6: per-particle contact dyads
   // (6 per particle) accumulated by the force kernels.
   static constexpr size_t kSums = 20;  // mass, volume, count, momentum(3), sum m v v (6), contact (6)
+  // only: null, or the local particles that may lie in the grid, in increasing order (the sums
+  // are then the same to the last bit: the others add nothing).
   void local_sample(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
-                    std::vector<double>& max_speed) const;
+                    std::vector<double>& max_speed, const std::vector<uint32_t>* only = nullptr) const;
   void add_sample(const std::vector<double>& sums, const std::vector<double>& max_speed);
   GridAverages take_averages();  // averages since the last call, then resets
   State& state() { return st_; }
