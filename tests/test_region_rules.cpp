@@ -197,14 +197,20 @@ TEST(RegionRules, SingleLevelCaseHasNoReport) {
 // ---- shipped cases --------------------------------------------------------------------
 
 TEST(RegionRules, ShippedHierarchiesPass) {
-  for (const char* c : {"silo_small/mlcg.toml", "silo_small/mlcg_no_pi.toml", "quickstart/mlcg.toml",
-                        "quickstart/mlcg3.toml", "silo_paper/mlcg.toml"}) {
+  for (const char* c : {"silo_small/mlcg.toml", "silo_small/mlcg_no_pi.toml", "silo_small/mlcg_tall.toml",
+                        "quickstart/mlcg.toml", "quickstart/mlcg3.toml", "silo_paper/mlcg.toml",
+                        "silo_paper/mlcg_small.toml", "silo_paper/mlcg3.toml"}) {
     const auto r = check_region_rules(load_case(kSrc + "/cases/" + c));
     EXPECT_TRUE(r.errors.empty()) << c << ":\n" << all(r.errors);
   }
   const auto silo = check_region_rules(load_case(kSrc + "/cases/silo_small/mlcg.toml"));
   // 3.6 coarse diameters per cell, D0/d 7.1, its top 1.5 D0 above the orifice: nothing to warn about
   EXPECT_TRUE(silo.warnings.empty()) << all(silo.warnings);
+  EXPECT_TRUE(has(silo.notes, "1.50 orifice diameters above the orifice")) << all(silo.notes);
+  // the same region up to 2 D0: no note about its height
+  const auto tall = check_region_rules(load_case(kSrc + "/cases/silo_small/mlcg_tall.toml"));
+  EXPECT_TRUE(tall.warnings.empty()) << all(tall.warnings);
+  EXPECT_FALSE(has(tall.notes, "orifice diameters above the orifice")) << all(tall.notes);
 }
 
 TEST(RegionRules, EveryHopperSceneHasItsVariantsAndPasses) {
