@@ -25,6 +25,9 @@ mkdir -p "$reports"
 export ASAN_OPTIONS="log_path=$reports/report:exitcode=86:halt_on_error=1:detect_leaks=1:check_initialization_order=1:strict_init_order=1:fast_unwind_on_malloc=0"
 export UBSAN_OPTIONS="log_path=$reports/report:exitcode=86:halt_on_error=1:print_stacktrace=1"
 export LSAN_OPTIONS="suppressions=$root/scripts/lsan.supp:print_suppressions=0"
+# The tests' exit deadlines (e.g. "SIGTERM ends it within 2 s") grow by this factor: an instrumented
+# process's exit alone (the leak check with full unwinding) takes seconds.
+export MLCG_TEST_TIME_SCALE="${MLCG_TEST_TIME_SCALE:-10}"
 
 start="$(date +%s)"
 rc=0

@@ -122,7 +122,7 @@ void check_top(const Check& c, const Box& box, const Orifice& o, RegionRuleRepor
     out.notes.push_back(fmt::format(
         "{}: the region's top is z = {:g} m, {:.2f} orifice diameters above the orifice (D0 = {:g} m, from {}): "
         "expect the discharge within about 3 % of a fully resolved run; for about 1 % raise max z to {:g} m "
-        "({:g} D0; silo_small: +1.2 % at 1.5 D0, +0.2 % at 2 D0), at the cost of more fine particles",
+        "({:g} D0; silo_small: +1.2 % at 1.5 D0, +0.4 % at 2 D0), at the cost of more fine particles",
         c.at("max"), box.hi.z, above, o.size, o.from, o.center.z + kOnePercentTopAboveOrifice * o.size,
         kOnePercentTopAboveOrifice));
     return;

@@ -35,7 +35,7 @@ inline constexpr double kMinTopAboveOrifice = 1.0;
 // 1.33 / 1.2 widths, and were within 1.5 % at 2 widths).
 inline constexpr double kAdvisedTopAboveOrifice = 1.1;
 // For about 1 %: below this height a note (not a warning) says so. silo_small against its five-seed
-// reference: +1.2 % with the top at 1.5 D0, +0.2 % at 2 D0 (README, silo_small); the steep hoppers
+// reference: +1.2 % with the top at 1.5 D0, +0.4 % at 2 D0 (README, silo_small); the steep hoppers
 // without the integral: within 1.5 % at 2 D0. A taller region costs fine particles.
 inline constexpr double kOnePercentTopAboveOrifice = 2.0;
 // Coupling cells at least this many coarse diameters wide: a packed cubic cell of 2
