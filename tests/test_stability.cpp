@@ -2,16 +2,19 @@
 // Each scene either runs to its end with no NaN and no energy gain, or is
 // refused before step 1 with a message naming the file, key, limit and fix.
 //
-// Energy bound: the measured total (kinetic + gravitational potential + elastic
-// contact energy) may not rise above its value at the start by more than
-// kGain x the largest energy in motion (kinetic + elastic) of the run. Velocity
-// Verlet on a Hertz contact resolved with >= 10 steps has an energy error of
-// order (dt / t_c)^2, about 1 %, that returns at separation; damping and
-// friction only remove energy. An instability gains orders of magnitude.
+// Energy bound: the measured total (kinetic + rotational + gravitational
+// potential + elastic contact energy) may not rise above its value at the start
+// by more than the scene's bound x the largest energy in motion (kinetic +
+// rotational + elastic) of the run. Issue 17: each bound is about 10x the gain
+// measured when it was set (README, "Numerical stability"), and not below 1e-9,
+// the rounding of the sums, so that a regression of one order of magnitude fails.
+// Damped scenes gain nothing but rounding; the undamped ones keep Velocity
+// Verlet's error of order (dt / t_c)^2 per contact, which returns at separation.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <iostream>
+#include <map>
 
 #include "config/case_parser.hpp"
 #include "core/spheres.hpp"
@@ -22,7 +25,31 @@ using namespace mlcg::test;
 
 namespace {
 
-constexpr double kGain = 0.01;
+// Largest gain / energy in motion per scene (the labels run_bounded and the tests print).
+const std::map<std::string, double> kBound = {
+    {"stability/youngs_1e6.toml", 1e-9},
+    {"stability/youngs_1e9.toml", 1e-9},
+    {"stability/youngs_1e11.toml", 1e-9},
+    {"stability/youngs_1e6.toml (e = 1, mu = 0)", 3e-3},   // measured 2.6e-4 up to the guard's stop
+    {"stability/youngs_1e9.toml (e = 1, mu = 0)", 8e-4},   // measured 7.7e-5
+    {"stability/youngs_1e11.toml (e = 1, mu = 0)", 4e-4},  // measured 3.4e-5
+    {"stability/chute_alpha8.toml", 1e-9},
+    {"stability/chute_alpha16.toml", 1e-9},
+    {"stability/impact_wall_50.toml", 1e-9},
+    {"stability/impact_bed_50.toml", 1e-9},
+    {"stability/polydisperse_10to1.toml", 1e-9},
+    {"stability/overlap_pack.toml", 1e-9},
+    {"stability/on_stl_edge.toml", 1e-9},
+    {"stability/on_stl_vertex.toml", 1e-9},
+    {"stability/dt_guard.toml (min_steps_per_contact 10)", 1e-9},
+    {"stability/dt_guard.toml (min_steps_per_contact 20)", 1e-9},
+};
+
+double bound(const std::string& scene) {
+  const auto it = kBound.find(scene);
+  if (it == kBound.end()) ADD_FAILURE() << "no energy bound for '" << scene << "'";
+  return it == kBound.end() ? 0.0 : it->second;
+}
 
 std::string refusal(const config::CaseSpec& cs) {
   try {
@@ -41,7 +68,7 @@ EnergyRun run_bounded(const std::string& scene, Level& level, int64_t expected_p
   EXPECT_EQ(r.particles, expected_particles) << scene;
   EXPECT_EQ(r.particles_end, r.particles) << scene << ": particles lost";
   EXPECT_GT(r.scale, 0.0) << scene;
-  EXPECT_LE(r.gain(), kGain) << scene << ": energy gain " << r.max_gain << " J of " << r.scale << " J in motion";
+  EXPECT_LE(r.gain(), bound(scene)) << scene << ": energy gain " << r.max_gain << " J of " << r.scale << " J in motion";
   std::cout << "[stability] " << scene << ": " << r.steps << " steps, dt = " << level.dt()
             << " s, largest energy gain / energy in motion = " << r.gain()
             << ", end - start = " << (r.e_end - r.e_ref) / r.scale << "\n";
@@ -85,7 +112,7 @@ TEST_P(Stiffness, ElasticFrictionlessPourConservesTheEnergyWithinTheBound) {
   Level level(cs, quiet());
   if (std::string(GetParam()) != "1e6") {
     const EnergyRun r = run_bounded(scene + " (e = 1, mu = 0)", level, 30);
-    EXPECT_NEAR(r.e_end, r.e_ref, kGain * r.scale);
+    EXPECT_NEAR(r.e_end, r.e_ref, bound(scene + " (e = 1, mu = 0)") * r.scale);
     return;
   }
   // At 1e6 Pa, undamped particles squeezed between others and the floor overlap more than the
@@ -93,7 +120,7 @@ TEST_P(Stiffness, ElasticFrictionlessPourConservesTheEnergyWithinTheBound) {
   // name, before any NaN, with the energy bounded up to the stop.
   const EnergyRun r = run_measuring_energy(level);
   EXPECT_TRUE(r.finite);
-  EXPECT_LE(r.gain(), kGain);
+  EXPECT_LE(r.gain(), bound(scene + " (e = 1, mu = 0)"));
   expect_contains(r.stop, {"max_overlap_fraction = 30 %", "particle id", "material too soft"});
   std::cout << "[stability] " << scene << " (e = 1, mu = 0): stopped at step " << r.steps
             << ", largest energy gain / energy in motion = " << r.gain() << "\n";
@@ -173,7 +200,7 @@ TEST(Polydisperse, RadiusRatioTenToOneGuardsTheSmallAgainstTheLargeAndStaysBound
   EXPECT_EQ(r.stop, "");
   EXPECT_GE(r.particles, 50);  // of 60 requested: SSI may not place every one in its batch
   EXPECT_EQ(r.particles_end, r.particles);
-  EXPECT_LE(r.gain(), kGain);
+  EXPECT_LE(r.gain(), bound(scene));
   std::cout << "[stability] " << scene << ": " << r.steps << " steps, " << r.particles
             << " particles, largest energy gain / energy in motion = " << r.gain() << "\n";
 }
@@ -242,7 +269,7 @@ TEST_P(DtAtTheGuard, JustBelowRunsBoundedJustAboveIsRefusedWithTheLimitAndTheFix
 
   cs.levels[0].dt = 0.99 * limit;
   Level level(cs, quiet());
-  run_bounded("stability/dt_guard.toml (min_steps_per_contact " + std::to_string(GetParam()) + ")", level, 4);
+  run_bounded("stability/dt_guard.toml (min_steps_per_contact " + std::to_string(static_cast<int>(GetParam())) + ")", level, 4);
 }
 
 INSTANTIATE_TEST_SUITE_P(MinSteps, DtAtTheGuard, ::testing::Values(10.0, 20.0));
@@ -300,4 +327,62 @@ TEST(InsertionRegion, NarrowerThanTheLargestCoarseGrainParticleIsRefusedWithTheS
     expect_contains(e.what(), {"r.toml:", "insertion[0].region", "along y", "diameter 0.032 m", "alpha 16",
                                "at least 0.032 m wide"});
   }
+}
+
+// The level's energy account ([output] energy_interval) against one kept by this test from the outside:
+// the energy after every step, and each particle's own energy when its id first appears and when it was
+// last seen before its id vanished. A conservative pour (e = 1, mu = 0) through an open floor, inserted in
+// batches and leaving through the bottom of the domain, so energy is carried in and out during the run.
+TEST(EnergyAccount, AgreesWithAnAccountKeptOutsideTheLevelAndClosesOnAConservativePour) {
+  auto cs = load("stability/youngs_1e9.toml");
+  cs.interactions[0].restitution = 1.0;
+  cs.interactions[0].friction = 0.0;
+  cs.walls.erase(cs.walls.begin());  // the floor: particles fall out of the domain
+  cs.domain.min.z = -0.004;
+  cs.insertions[0].rate = 6000.0;  // 30 particles in batches of 6 every ms
+  cs.insertions[0].interval = 0.001;
+  cs.output.energy_interval = 1e-9;  // every step
+  Level level(cs, quiet());
+  ASSERT_NE(level.energy_account(), nullptr);
+  const Vec3 g{0.0, 0.0, -9.81};
+  auto own = [&](const Particles& p, size_t i) {
+    return 0.5 * p.mass[i] * norm2(p.v[i]) + 0.5 / p.inv_inertia[i] * norm2(p.omega[i]) - p.mass[i] * dot(g, p.x[i]);
+  };
+  std::map<int64_t, double> last;  // id -> its own energy after the previous step
+  double e0 = 0.0, in = 0.0, out = 0.0, gain = 0.0;
+  const auto steps = static_cast<uint64_t>(std::llround(level.end_time() / level.dt()));
+  for (uint64_t s = 1; s <= steps; ++s) {
+    level.step_once();
+    const auto& p = level.particles();
+    std::map<int64_t, double> now;
+    for (size_t i = 0; i < p.n_local(); ++i) now[p.id[i]] = own(p, i);
+    const double e = level.energy().total();
+    if (s == 1) {
+      e0 = e;
+    } else {
+      for (const auto& [id, en] : now)
+        if (!last.count(id)) in += en;
+      for (const auto& [id, en] : last)
+        if (!now.count(id)) out += en;
+    }
+    last = std::move(now);
+    gain = e - e0 - in + out;
+  }
+  const EnergyTotals& t = level.energy_account()->totals();
+  EXPECT_EQ(t.samples, steps);
+  EXPECT_DOUBLE_EQ(t.start, e0);
+  EXPECT_EQ(t.controller_work, 0.0);  // uncoupled
+  // Both saw energy come in and go out, and agree on how much (insertion and removal are measured a step
+  // apart by the two: a free particle's energy changes by the integrator's error over a step).
+  EXPECT_GT(in, 0.05 * t.in_motion);
+  EXPECT_GT(out, 0.05 * t.in_motion);
+  EXPECT_NEAR(t.inserted, in, 1e-6 * t.in_motion);
+  EXPECT_NEAR(t.removed, out, 1e-6 * t.in_motion);
+  EXPECT_NEAR(t.end_gain, gain, 1e-6 * t.in_motion);
+  // Conservative: the account closes to the integrator's error.
+  EXPECT_LE(std::fabs(t.end_gain), 1e-3 * t.in_motion);
+  EXPECT_LE(t.max_rise, 1e-3 * t.in_motion);
+  std::cout << "[stability] energy account: in " << t.inserted << " J (outside: " << in << "), out " << t.removed
+            << " J (" << out << "), end gain " << t.end_gain << " J (" << gain << ") of " << t.in_motion
+            << " J in motion, largest rise " << t.max_rise << " J\n";
 }

@@ -172,7 +172,7 @@ void read_domain(const Table& root, CaseSpec& spec) {
 void read_output(const Table& root, CaseSpec& spec) {
   const auto t = root.table("output");
   if (!t) return;
-  t->allow({"snapshot_interval", "checkpoint_interval", "stats_interval"});
+  t->allow({"snapshot_interval", "checkpoint_interval", "stats_interval", "energy_interval"});
   OutputSpec& o = spec.output;
   o.snapshot_interval = t->number("snapshot_interval", o.snapshot_interval);
   t->non_negative("snapshot_interval", o.snapshot_interval, "s (0 = only the final state)");
@@ -180,6 +180,8 @@ void read_output(const Table& root, CaseSpec& spec) {
   t->non_negative("checkpoint_interval", o.checkpoint_interval, "s (0 = only at the end)");
   o.stats_interval = t->number("stats_interval", o.stats_interval);
   t->positive("stats_interval", o.stats_interval, "s");
+  o.energy_interval = t->number("energy_interval", o.energy_interval);
+  t->non_negative("energy_interval", o.energy_interval, "s (0 = no energy account)");
 }
 
 void read_stability(const Table& root, CaseSpec& spec) {

@@ -262,7 +262,7 @@ void cell_costs(const Table& root, const CaseSpec& spec, std::vector<Cost>& cost
   }
 }
 
-// Probe samples and rows of series.csv, kept for the whole run.
+// Probe samples and rows of series.csv and energy.csv, kept for the whole run.
 void series_costs(const Table& root, const CaseSpec& spec, double end, std::vector<Cost>& costs) {
   const double levels = static_cast<double>(spec.levels.size());
   const auto probes = array_of_tables(root, "probes");
@@ -279,6 +279,13 @@ void series_costs(const Table& root, const CaseSpec& spec, double end, std::vect
   costs.push_back({at.first, at.second, num(every) + " s keeps a row of series.csv at most every step",
                    kBytesPerSeriesRow * steps_total(spec, end, every), [=](double allowed) {
                      return fmt::format("stats_interval >= {:.3g} s", end * levels * kBytesPerSeriesRow / allowed);
+                   }});
+  const double energy = spec.output.energy_interval;
+  if (energy <= 0.0) return;
+  const auto eat = where(root, "output", "energy_interval");
+  costs.push_back({eat.first, eat.second, num(energy) + " s keeps a row of energy.csv at most every step",
+                   kBytesPerSeriesRow * steps_total(spec, end, energy), [=](double allowed) {
+                     return fmt::format("energy_interval >= {:.3g} s", end * levels * kBytesPerSeriesRow / allowed);
                    }});
 }
 

@@ -177,6 +177,7 @@ struct OutputSpec {                // [output]
   double snapshot_interval = 0.0;  // snapshot_interval [s]; 0 = only the final state
   double checkpoint_interval = 0.0;// checkpoint_interval [s]; 0 = only at the end
   double stats_interval = 0.01;    // stats_interval [s]: rows of series.csv
+  double energy_interval = 0.0;    // energy_interval [s]: rows of energy.csv (the energy account); 0 = off
 };
 
 struct StabilitySpec {             // [stability]

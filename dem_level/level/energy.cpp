@@ -1,7 +1,8 @@
-// The level's mechanical energy, for stability tests and reports (never called
-// by the time loop): kinetic (translation and rotation), gravitational
-// potential -m g.x, and the elastic energy stored in the contacts, so that
-// "no energy gain beyond the work of gravity" can be measured on any scene.
+// The level's mechanical energy, for stability tests and the energy account
+// (called by the time loop only when [output] energy_interval asks): kinetic,
+// rotational, gravitational potential -m g.x, and the elastic energy stored in
+// the contacts, so that "no energy gain beyond the work of gravity" can be
+// measured on any scene.
 #include <cmath>
 
 #include "level/level.hpp"
@@ -21,10 +22,11 @@ double contact_energy(const PairCoeffs& c, double r_eff, double delta, const Vec
 
 Level::Energy Level::energy() {
   if (rebuild_pending_) rebuild();  // the lists must match the particles (e.g. before step 1)
-  double e[3] = {0.0, 0.0, 0.0};  // kinetic, potential, elastic
+  double e[4] = {0.0, 0.0, 0.0, 0.0};  // kinetic, potential, elastic, rotational
   const size_t n = p_.n_local();
   for (size_t i = 0; i < n; ++i) {
-    e[0] += 0.5 * p_.mass[i] * norm2(p_.v[i]) + 0.5 / p_.inv_inertia[i] * norm2(p_.omega[i]);
+    e[0] += 0.5 * p_.mass[i] * norm2(p_.v[i]);
+    e[3] += 0.5 / p_.inv_inertia[i] * norm2(p_.omega[i]);
     e[1] -= p_.mass[i] * dot(gravity_, p_.x[i]);
   }
   const bool hist = keep_history_ && nl_.hist.size() == nl_.neigh.size();
@@ -70,8 +72,13 @@ Level::Energy Level::energy() {
       k = stop - 1;
     }
   }
-  comm_.sum_in_place(e, 3);
-  return {e[0], e[1], e[2]};
+  comm_.sum_in_place(e, 4);
+  Energy out;
+  out.kinetic = e[0];
+  out.rotational = e[3];
+  out.potential = e[1];
+  out.elastic = e[2];
+  return out;
 }
 
 }  // namespace mlcg

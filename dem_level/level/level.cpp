@@ -201,6 +201,7 @@ void Level::rebuild() {
       exit = static_cast<int>(Exit::Wall);
     else if (coupled_ && coupling_removes(static_cast<size_t>(i))) exit = static_cast<int>(Exit::Boundary);
     if (exit >= 0) {
+      if (account_) account_->carried_out(p_, static_cast<size_t>(i));
       gone[2 * exit] += 1.0;
       gone[2 * exit + 1] += p_.mass[static_cast<size_t>(i)];
       continue;
@@ -310,7 +311,11 @@ void Level::step_once() {
     PhaseTimer t(times_.force);
     clear_ghost_forces(p_);
     forces_(fctx_, stress);
-    if (coupled_) coupling_forces();
+    if (coupled_) {
+      if (account_) account_->before_controller(p_);
+      coupling_forces();
+      if (account_) account_->after_controller(p_);
+    }
   }
   const auto& st = fctx_.stats;
   std::string problem;
@@ -322,6 +327,7 @@ void Level::step_once() {
   {
     PhaseTimer t(times_.integrate);
     sum = integrate_second_half(p_, dt_);
+    if (account_) account_->controller_work(p_, dt_);
   }
   if (problem.empty() && !std::isfinite(sum)) problem = non_finite("velocity");
   guard(problem, std::isfinite(sum) ? st.max_overlap_ratio : 2.0);

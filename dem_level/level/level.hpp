@@ -23,6 +23,7 @@
 #include "core/material.hpp"
 #include "core/particles.hpp"
 #include "insertion/inserter.hpp"
+#include "level/energy_account.hpp"
 #include "level/force_dispatch.hpp"
 #include "level/stability.hpp"
 #include "measure/cell_grid.hpp"
@@ -118,14 +119,13 @@ class Level {
   const std::vector<MassFlowProbe>& probes() const { return probes_; }
   MassBalance mass_balance() const;
   double kinetic_energy() const;
-  // Mechanical energy [J] (collective; level/energy.cpp): kinetic with rotation, gravitational
+  // Mechanical energy [J] (collective; level/energy.cpp): kinetic, rotational, gravitational
   // potential -m g.x, and the elastic energy stored in the contacts (Hertz and tangential springs).
   // Builds the neighbour lists first when they are stale (e.g. before step 1).
-  struct Energy {
-    double kinetic = 0.0, potential = 0.0, elastic = 0.0;
-    double total() const { return kinetic + potential + elastic; }
-  };
+  using Energy = EnergyParts;
   Energy energy();
+  // The energy account ([output] energy_interval; level/energy_account.hpp); null when off.
+  const EnergyAccount* energy_account() const { return account_.get(); }
   const StabilityReport& stability() const { return stab_; }
   const PhaseTimes& phase_times() const { return times_; }
   void reset_phase_times() { times_ = PhaseTimes{}; }
@@ -196,6 +196,7 @@ class Level {
   // Collective stop: throws GuardStop on every rank if any rank has a problem.
   void guard(const std::string& local_problem, double badness);
   void after_step();              // measurements and outputs at the new time
+  void sample_energy();           // collective: a row of the energy account, when one is due
   void write_outputs(bool final);
   void write_snapshot();             // collective: gathered on rank 0
   void write_snapshot_file(const std::vector<char>& gathered);  // rank 0
@@ -232,6 +233,7 @@ class Level {
   void coupling_refresh();              // rebuild: crossing candidates
   bool coupling_finished() const;       // the coupler said stop and the last interval is done
   bool coupling_mid_interval() const;   // coupled, with steps of the current interval still to run
+  bool coupling_reached(double end) const;  // the last interval of a run ending at `end` is done
   const std::string& coupling_stop_reason() const;  // non-empty: the coupler cut the run short
   void coupling_bye(RunStatus status, const std::string& reason);
 
@@ -300,6 +302,7 @@ class Level {
   double wall_start_ = 0.0, last_progress_ = -1e300, last_progress_t_ = 0.0;
   double wall_seconds_before_ = 0.0;  // from earlier processes of a restarted run
   std::unique_ptr<Coupled, CoupledDeleter> coupled_;  // null unless LevelOptions::coupler is set
+  std::unique_ptr<EnergyAccount> account_;            // null unless [output] energy_interval > 0
 };
 
 // Installs SIGINT/SIGTERM handlers that ask every running level to stop cleanly.

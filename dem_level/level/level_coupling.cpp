@@ -33,6 +33,7 @@ struct Level::Coupled {
   std::unique_ptr<coupling::Client> client;
   std::vector<coupling::GridLink> grids;
   uint64_t steps = 1;         // steps per interval
+  double interval = 0.0;      // the coupler's, the same double on every level
   uint64_t sample_every = 1;  // steps between cell samples
   uint64_t k = 0;             // the interval being run
   uint64_t done = 0;          // its steps done
@@ -122,6 +123,7 @@ void Level::connect_coupler() {
   if (w.start_interval() != start)
     throw std::runtime_error(fmt::format("level '{}': the coupler starts at interval {}, this level at {}", lvl_.name,
                                          w.start_interval(), start));
+  c->interval = w.coupling_interval();
   c->sample_every = std::max<uint64_t>(1, c->steps / kSamplesPerInterval);
   c->k = start;
   c->inserted = coupling_restored_.inserted;  // the run before the checkpoint's, so the report covers the whole run
@@ -276,6 +278,13 @@ void Level::coupling_refresh() {
 bool Level::coupling_finished() const { return coupled_->finished; }
 
 bool Level::coupling_mid_interval() const { return coupled_ && coupled_->done != 0; }
+
+bool Level::coupling_reached(double end) const {
+  // Counted in intervals, not in this level's steps: levels of different dt must stop after the same
+  // interval even when `end` is no whole number of intervals (the first boundary at or after it).
+  const Coupled& c = *coupled_;
+  return c.done == 0 && static_cast<double>(c.k) >= std::ceil(end / c.interval - 1e-6);
+}
 
 const std::string& Level::coupling_stop_reason() const { return coupled_->stop_reason; }
 

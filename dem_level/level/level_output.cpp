@@ -71,9 +71,9 @@ RunStatus Level::run() {
   bool output_failed = false;
   try {
     while (true) {
-      // A coupled level ends with an interval: one cut short has received and inserted the coupler's particles
-      // but never reports them, and the coupler would take them back.
-      if (end_time_ >= 0.0 && time() >= end_time_ - half && !coupling_mid_interval()) break;
+      // A coupled level ends with an interval, the same one on every level (whatever its dt): one cut short has
+      // received and inserted the coupler's particles but never reports them, and the coupler would take them back.
+      if (end_time_ >= 0.0 && (coupled_ ? coupling_reached(end_time_) : time() >= end_time_ - half)) break;
       if (comm_.any(stopping())) {
         status = RunStatus::Interrupted;
         reason = "interrupted by a signal";
@@ -172,10 +172,21 @@ void Level::sync_output() const {
   throw OutputStop(comm_.serial() ? output_error_ : comm_.bcast(output_error_, 0));
 }
 
+void Level::sample_energy() {
+  // The account measures between steps with current lists; a pending rebuild (a test moved
+  // particles) would change the run, so the sample waits a step.
+  if (!account_ || !account_->due(step_) || comm_.any(rebuild_pending_)) return;
+  account_->sample(step_, time(), energy(), comm_);
+}
+
 void Level::after_step() {
   const double t = time();
   const double half = 0.5 * dt_;
   bool grid_output = false;
+  if (account_) {
+    PhaseTimer measure(times_.measure);
+    sample_energy();
+  }
   {
     PhaseTimer measure(times_.measure);
     for (auto& pr : probes_)
@@ -276,6 +287,7 @@ void Level::write_series_files(std::vector<std::string> rows, const std::string&
   std::string csv = kSeriesHeader;
   for (const auto& r : rows) csv += r + "\n";
   io::write_file_atomic(opt_.out_dir / "series.csv", csv);
+  if (account_) io::write_file_atomic(opt_.out_dir / "energy.csv", account_->csv());
   for (const auto& pr : probes_) io::write_file_atomic(opt_.out_dir / "probes" / (pr.params().name + ".csv"), pr.csv());
 }
 
@@ -337,6 +349,23 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
                       {"largest_insert_overlap_of_diameter", cr.worst_insert_overlap},
                       {"largest_insert_wall_overlap_of_diameter", cr.worst_insert_wall_overlap},
                       {"inserted_outside_walls", cr.inserted_outside_walls}};
+  if (account_) {
+    // energy.csv in short: the largest unexplained gain, and the scale it is judged against.
+    const EnergyTotals& e = account_->totals();
+    lv["energy"] = {{"samples", e.samples},
+                    {"start_J", e.start},
+                    {"controller_work_J", e.controller_work},
+                    {"inserted_J", e.inserted},
+                    {"removed_J", e.removed},
+                    {"max_gain_J", e.max_gain},
+                    {"max_gain_time", e.max_gain_time},
+                    {"max_rise_J", e.max_rise},
+                    {"max_rise_time", e.max_rise_time},
+                    {"end_gain_J", e.end_gain},
+                    {"in_motion_J", e.in_motion},
+                    {"max_gain_of_in_motion", e.in_motion > 0.0 ? e.max_gain / e.in_motion : 0.0},
+                    {"max_rise_of_in_motion", e.in_motion > 0.0 ? e.max_rise / e.in_motion : 0.0}};
+  }
   j["levels"] = json::array({lv});
   j["probes"] = probe_entries(probes_);
   j["mass_balance"] = {{"requested", b.requested},       {"inserted", b.inserted},

@@ -337,6 +337,9 @@ void Level::setup_measurements() {
                                                   !opt_.restart.empty());
     grids_.push_back(std::move(g));
   }
+  if (cs_.output.energy_interval > 0.0)
+    account_ = std::make_unique<EnergyAccount>(
+        std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(cs_.output.energy_interval / dt_))), gravity_, dt_);
 }
 
 void Level::load_initial_state(std::vector<ParticleKind>& kinds, std::vector<PlacedParticle>& placed, bool add) {
@@ -367,6 +370,7 @@ void Level::add_particle(const ParticleInit& pi) {
   p_.f.back() = p_.mass.back() * gravity_;
   next_id_ = std::max(next_id_, pi.id + 1);
   rebuild_pending_ = true;
+  if (account_) account_->carried_in(p_, p_.n_local() - 1);
 }
 
 void Level::resolve_end_time() {

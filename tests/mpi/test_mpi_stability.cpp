@@ -31,7 +31,7 @@ TEST(RankBorder, ParticlesOnTheBorderKeepTheEnergyBoundedAndMatchOneRank) {
     EXPECT_EQ(r->particles, 6);
     EXPECT_EQ(r->particles_end, 6);
     EXPECT_GT(r->scale, 0.0);
-    EXPECT_LE(r->gain(), 0.01);  // the bound of test_stability.cpp
+    EXPECT_LE(r->gain(), 1e-9);  // measured 0 (damped): the rounding floor of test_stability.cpp's bounds
   }
   // Same physics up to summation order.
   EXPECT_EQ(r1.steps, r2.steps);
