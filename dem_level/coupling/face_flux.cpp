@@ -33,14 +33,9 @@ void FaceFlux::reset() {
 
 void FaceFlux::refresh(const Particles& p, double band) {
   const Vec3 lo = geo_.box_lo(), hi = geo_.box_hi();
-  plane_.refresh(p, band, [&](const Vec3& x, double) {
-    return x.x >= lo.x - band && x.x <= hi.x + band && x.y >= lo.y - band && x.y <= hi.y + band;
-  });
+  plane_.refresh(p, band, [&](const Vec3& x, double) { return bus::near_box(x, lo, hi, band, false); });
   for (auto& sp : sides_)
-    sp.plane.refresh(p, band, [&](const Vec3& x, double) {
-      return x.z >= lo.z - band && x.z <= hi.z + band && x.x >= lo.x - band && x.x <= hi.x + band &&
-             x.y >= lo.y - band && x.y <= hi.y + band;
-    });
+    sp.plane.refresh(p, band, [&](const Vec3& x, double) { return bus::near_box(x, lo, hi, band); });
 }
 
 void FaceFlux::add(size_t f, double m, const Vec3& v, const Vec3& x, double r, int sign) {

@@ -51,12 +51,8 @@ void GridLink::refresh(const Particles& p, double band) {
   if (role_ == Role::Coarse) flux_.refresh(p, band);
   else forces_.refresh(p, band);
   in_box_.clear();
-  for (size_t i = 0; i < p.n_local(); ++i) {
-    const Vec3& x = p.x[i];
-    if (x.x >= lo_.x - band && x.x <= hi_.x + band && x.y >= lo_.y - band && x.y <= hi_.y + band &&
-        x.z >= lo_.z - band && x.z <= hi_.z + band)
-      in_box_.push_back(static_cast<uint32_t>(i));
-  }
+  for (size_t i = 0; i < p.n_local(); ++i)
+    if (bus::near_box(p.x[i], lo_, hi_, band)) in_box_.push_back(static_cast<uint32_t>(i));
   in_box_valid_ = true;
 }
 

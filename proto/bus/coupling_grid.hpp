@@ -83,4 +83,12 @@ class CouplingGeometry {
   std::vector<int> lookup_;  // flat index -> active cell or -1
 };
 
+// x lies within `band` of the box [lo, hi], axis by axis (the box grown by band); with_z = false checks the
+// column over the box's footprint only. The candidate lists of the level's coupling (crossings, the grid's
+// particles) are built with it at each neighbour-list rebuild, band = the skin.
+inline bool near_box(const Vec3& x, const Vec3& lo, const Vec3& hi, double band, bool with_z = true) {
+  return x.x >= lo.x - band && x.x <= hi.x + band && x.y >= lo.y - band && x.y <= hi.y + band &&
+         (!with_z || (x.z >= lo.z - band && x.z <= hi.z + band));
+}
+
 }  // namespace mlcg::bus
