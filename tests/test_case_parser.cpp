@@ -127,6 +127,7 @@ TEST(CaseParser, CompleteCaseParses) {
 
   EXPECT_DOUBLE_EQ(c.output.snapshot_interval, 0.05);
   EXPECT_DOUBLE_EQ(c.output.stats_interval, 0.01);  // default
+  EXPECT_DOUBLE_EQ(c.output.energy_interval, 0.0);  // default: no energy account
   EXPECT_DOUBLE_EQ(c.stability.rayleigh_fraction, 0.25);
   EXPECT_DOUBLE_EQ(c.stability.min_steps_per_contact, 10.0);
   EXPECT_TRUE(c.stability.dt_override_reason.empty());
@@ -562,6 +563,11 @@ TEST(CaseParserErrors, StabilityFractionOutOfRange) {
 
 TEST(CaseParserErrors, OutputStatsIntervalNotPositive) {
   expect_error("checkpoint_interval = 0.5", "stats_interval = 0", "output.stats_interval", "0 is not > 0");
+}
+
+TEST(CaseParserErrors, OutputEnergyIntervalNegative) {
+  expect_error("checkpoint_interval = 0.5", "energy_interval = -1e-3", "output.energy_interval",
+               "-0.001 is negative; give a value >= 0 in s (0 = no energy account)");
 }
 
 TEST(CaseParserErrors, LoadCaseMissingFile) {
