@@ -7,6 +7,8 @@
 #include <csignal>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -19,6 +21,22 @@
 namespace fs = std::filesystem;
 
 namespace mlcg::launcher {
+namespace {
+// The launcher still runs: its pid exists and is no zombie (a parent that has not reaped it yet, e.g. a
+// script blocked on this very command, keeps the pid of a launcher that has ended), and its status.json
+// does not say it ended.
+bool launcher_alive(pid_t pid, const fs::path& run_dir) {
+  if (kill(pid, 0) != 0) return false;
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+  const auto paren = text.rfind(')');  // the state follows the command name, which may hold spaces
+  if (paren != std::string::npos && paren + 2 < text.size() && text[paren + 2] == 'Z') return false;
+  const auto st = read_json_or_null(run_dir / "status.json");
+  const std::string state = st.is_object() ? st.value("state", "") : "";
+  return state != "completed" && state != "interrupted" && state != "failed";
+}
+}  // namespace
+
 int swap_command(const fs::path& run_dir, const std::string& level, const std::string& binary) {
   try {
     const RunInfo info = read_run_info(run_dir);
@@ -50,7 +68,12 @@ int swap_command(const fs::path& run_dir, const std::string& level, const std::s
         fs::remove(result);
         return r.value("done", false) ? 0 : 1;
       }
-      if (kill(launcher, 0) != 0) throw std::runtime_error("the launcher ended before swapping");
+      if (!launcher_alive(launcher, run_dir)) {
+        // It may have answered just before it ended.
+        const auto last = read_json_or_null(result);
+        if (last.is_object()) continue;
+        throw std::runtime_error("the launcher (pid " + std::to_string(launcher) + ") ended before swapping");
+      }
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
     }
   } catch (const std::exception& e) {

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 #include <csignal>
 #include <cerrno>
 #include <fcntl.h>
@@ -24,6 +25,7 @@
 using launch_support::expect_no_process_left;
 using launch_support::expect_resume_completes_as;
 using launch_support::expect_same_result;
+using launch_support::KillOnExit;
 using launch_support::kBin;
 using launch_support::kSrc;
 using launch_support::pid_of;
@@ -420,6 +422,45 @@ TEST(MlcgSwap, AnotherProtocolIsRefusedAndTheOldBinaryContinuesThenACopySwapsIn)
   expect_same_result(dir, ref);
   for (const auto& d : {ref, dir}) remove_run(d);
   for (const auto& f : {dir.string() + ".swap1", dir.string() + ".swap2", copy.string()}) fs::remove(f);
+}
+
+// Found when a swap test hung for 15 minutes: `mlcg swap` waited for an answer from a launcher that had
+// ended but was not yet reaped by its parent (the caller itself, blocked on the swap), a zombie whose pid
+// still answers kill(pid, 0). It now gives up, naming the launcher, within its polling period.
+TEST(MlcgSwap, AnEndedLauncherNotYetReapedIsNotWaitedFor) {
+  const fs::path dir = fs::temp_directory_path() / ("mlcg_swapz_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
+                               dir.string() + ".out");
+  KillOnExit guard{pid};
+  ASSERT_TRUE(wait_for_checkpoint(dir, 104, pid)) << slurp(dir.string() + ".out");
+  ASSERT_EQ(kill(pid, SIGKILL), 0);  // not reaped until wait_exit below: a zombie meanwhile
+  for (int i = 0; i < 50 && slurp("/proc/" + std::to_string(pid) + "/stat").find(") Z ") == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const int rc = run("timeout 30 " + kBin + "/mlcg swap " + dir.string() + " --level fine --binary " + kBin +
+                     "/dem_level > " + dir.string() + ".swapz 2>&1");
+  const std::string out = slurp(dir.string() + ".swapz");
+  EXPECT_EQ(rc, 1) << "124: still waiting after 30 s\n" << out;
+  EXPECT_NE(out.find("the launcher (pid " + std::to_string(pid) + ") ended before swapping"), std::string::npos) << out;
+  EXPECT_EQ(wait_exit(pid), 128 + SIGKILL);
+  guard.pid = -1;
+  // The launcher's death stops its children (LauncherDeath: within 5 s; ended children of a dead launcher
+  // may stay zombies of this container's init, so "running" is what counts).
+  std::vector<pid_t> children;
+  const auto status = read_json(dir / "status.json");
+  for (const auto& p : status["processes"]) children.push_back(p["pid"].get<pid_t>());
+  ASSERT_FALSE(children.empty());
+  const double limit = 5.0 * launch_support::time_scale();
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(limit);
+  auto any_running = [&] {
+    return std::any_of(children.begin(), children.end(), [](pid_t c) { return launch_support::running(c); });
+  };
+  while (any_running() && std::chrono::steady_clock::now() < until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_FALSE(any_running()) << "a process of the run outlived its launcher by " << limit << " s";
+  EXPECT_TRUE(launch_support::processes_naming(dir).empty());
+  remove_run(dir);
+  fs::remove(dir.string() + ".swapz");
 }
 
 TEST(MlcgSwap, CaseSwapEntryReplacesTheFineLevelAtItsTime) {
