@@ -110,11 +110,23 @@ nlohmann::json summary_since(const fs::path& p, fs::file_time_type start) {
 // A level that went silent (hung, SIGSTOP) or told the coupler it failed (a signal, a full disk) is the run's
 // failure, whichever process ended first: the coupler that stopped the run on its account, or a level it told
 // to stop. Its pid goes into the coupler's message.
-void name_failed_level(const nlohmann::json& cpl, const std::vector<Member>& members, Outcome& r) {
+void name_failed_level(const fs::path& run_dir, fs::file_time_type start, const nlohmann::json& cpl,
+                       const std::vector<Member>& members, Outcome& r) {
   std::string level = cpl.value("silent_level", "");
   if (level.empty()) level = cpl.value("failed_level", "");
   const std::string why = cpl.value("error", ""), name = "level '" + level + "'";
   if (level.empty() || why.rfind(name, 0) != 0) return;
+  // Not a level the launcher itself stopped: when another level ended first on its own (killed, or refused by
+  // the coupler before it wrote anything) the launcher's SIGTERM reaches the others, and one of them may tell
+  // the coupler "interrupted by a signal" before the first one's end is heard there. A first level that the
+  // coupler stopped ("the coupler at ... ended the run") is no such case: the coupler's level is the failure.
+  const std::string prefix = "level '";
+  if (r.failed_name != name && r.failed_name.rfind(prefix, 0) == 0 &&
+      why.rfind(name + " failed: interrupted by a signal", 0) == 0) {
+    const std::string first = r.failed_name.substr(prefix.size(), r.failed_name.size() - prefix.size() - 1);
+    const auto own = summary_since(run_dir / "levels" / first / "summary.json", start);
+    if (own.value("reason", "").rfind("the coupler at", 0) != 0) return;
+  }
   for (const auto& m : members)
     if (m.name == name) {
       r.failed = name + " (pid " + std::to_string(m.pid) + ")" + why.substr(name.size());
@@ -142,7 +154,7 @@ void name_failure(const fs::path& run_dir, fs::file_time_type start, const std::
                   Outcome& r) {
   if (r.exit_code == 0 || r.interrupted) return;
   const auto cpl = summary_since(run_dir / "coupling" / "summary.json", start);
-  name_failed_level(cpl, members, r);
+  name_failed_level(run_dir, start, cpl, members, r);
   if (r.failed_name == "coupler" && !cpl.value("error", "").empty())  // its reason (it runs --quiet)
     r.failed += ": " + cpl.value("error", "");
   name_silent_coupler(run_dir, start, cpl, members, r);
