@@ -136,57 +136,65 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
   for (size_t i0 = 0; i0 < n; i0 += kBlock) {
     const size_t i1 = std::min(n, i0 + kBlock);
     b.reserve(static_cast<size_t>(nl.first[i1] - nl.first[i0]));
-    // 1. Gather the touching pairs of the block. Branch-free: whether a listed
+    // 1a. Find the touching pairs of the block. Branch-free: whether a listed
     // pair touches is unpredictable, so every pair is written to the next slot
-    // and the slot only advances if it touches; a pair that does not touch has
-    // its history cleared by a multiply.
+    // and the slot only advances if it touches. Only indices are written here,
+    // so a listed pair that does not touch costs one distance test.
     int32_t nc = 0;
     for (size_t i = i0; i < i1; ++i) {
-      const Vec3 xi = x[i], vi = v[i], wi = w[i];
-      const double ri = rad[i], mi = mass[i];
-      const int32_t mrow = mat[i] * nmat;
+      const Vec3 xi = x[i];
+      const double ri = rad[i];
       for (int32_t k = nl.first[i], end = nl.first[i + 1]; k < end; ++k) {
         const auto j = static_cast<size_t>(neigh[k]);
-        const Vec3 d = xi - x[j];
-        const double rj = rad[j];
-        const double radsum = ri + rj;
-        const bool touch = norm2(d) < radsum * radsum;
+        const double radsum = ri + rad[j];
+        const bool touch = norm2(xi - x[j]) < radsum * radsum;
         const auto c = static_cast<size_t>(nc);
         b.i[c] = static_cast<int32_t>(i);
-        b.j[c] = static_cast<int32_t>(j);
         b.k[c] = k;
-        b.cix[c] = mrow + mat[j];
-        b.dx[c] = d.x;
-        b.dy[c] = d.y;
-        b.dz[c] = d.z;
-        b.ri[c] = ri;
-        b.rj[c] = rj;
-        b.mi[c] = mi;
-        b.mj[c] = mass[j];
-        const Vec3 dv = vi - v[j];
-        const Vec3 ws = ri * wi + rj * w[j];
-        b.dvx[c] = dv.x;
-        b.dvy[c] = dv.y;
-        b.dvz[c] = dv.z;
-        b.wsx[c] = ws.x;
-        b.wsy[c] = ws.y;
-        b.wsz[c] = ws.z;
-        if constexpr (Model::has_rolling) {
-          const Vec3 wr = wi - w[j];
-          b.wrx[c] = wr.x;
-          b.wry[c] = wr.y;
-          b.wrz[c] = wr.z;
-        }
-        if constexpr (Model::has_history) {
-          const Vec3 h = hist[k] * (touch ? 1.0 : 0.0);
-          hist[k] = h;
-          b.hx[c] = h.x;
-          b.hy[c] = h.y;
-          b.hz[c] = h.z;
-        }
         nc += touch ? 1 : 0;
       }
     }
+    // 1b. Gather what the contact law needs, for the touching pairs only.
+    for (int32_t q = 0; q < nc; ++q) {
+      const auto c = static_cast<size_t>(q);
+      const auto i = static_cast<size_t>(b.i[c]);
+      const auto j = static_cast<size_t>(neigh[b.k[c]]);
+      b.j[c] = static_cast<int32_t>(j);
+      const Vec3 d = x[i] - x[j];
+      const double ri = rad[i], rj = rad[j];
+      if (nmat > 1) b.cix[c] = mat[i] * nmat + mat[j];  // one material: the law never reads it
+      b.dx[c] = d.x;
+      b.dy[c] = d.y;
+      b.dz[c] = d.z;
+      b.ri[c] = ri;
+      b.rj[c] = rj;
+      b.mi[c] = mass[i];
+      b.mj[c] = mass[j];
+      const Vec3 dv = v[i] - v[j];
+      const Vec3 ws = ri * w[i] + rj * w[j];
+      b.dvx[c] = dv.x;
+      b.dvy[c] = dv.y;
+      b.dvz[c] = dv.z;
+      b.wsx[c] = ws.x;
+      b.wsy[c] = ws.y;
+      b.wsz[c] = ws.z;
+      if constexpr (Model::has_rolling) {
+        const Vec3 wr = w[i] - w[j];
+        b.wrx[c] = wr.x;
+        b.wry[c] = wr.y;
+        b.wrz[c] = wr.z;
+      }
+      if constexpr (Model::has_history) {
+        const Vec3 h = hist[b.k[c]];
+        b.hx[c] = h.x;
+        b.hy[c] = h.y;
+        b.hz[c] = h.z;
+      }
+    }
+    // The block's history is now in the buffers: clear it in the list, the
+    // scatter writes it back for the touching pairs, so the others are reset.
+    if constexpr (Model::has_history)
+      std::fill(hist + nl.first[i0], hist + nl.first[i1], Vec3{});
     // 2. The contact law, vectorized.
     if (nmat == 1) block_contact_forces<Model, true>(b, nc, coeffs, dt);
     else block_contact_forces<Model, false>(b, nc, coeffs, dt);

@@ -314,7 +314,17 @@ int TriangleMesh::contacts(const Vec3& p, double r, const int32_t* cand, int nca
     if (big.size() < size_t(ncand)) big.resize(size_t(ncand));
     hits = big.data();
   }
-  for (int i = 0; i < ncand; ++i) new (&hits[i]) Hit(classify(cand[i], p));
+  // A triangle whose plane is farther than r cannot touch (its distance is at
+  // least the plane's); it is not classified. The margin keeps rounding from
+  // deciding a contact the full test would find.
+  const double r_far = r * (1.0 + 1e-9);
+  for (int i = 0; i < ncand; ++i) {
+    const Tri& t = tri_[size_t(cand[i])];
+    if (std::abs(dot(p - t.x[0], t.n)) > r_far)
+      new (&hits[i]) Hit{face_key(uint32_t(cand[i])), std::numeric_limits<double>::infinity(), Vec3{}, 1};
+    else
+      new (&hits[i]) Hit(classify(cand[i], p));
+  }
 
   int nout = 0;
   for (int i = 0; i < ncand && nout < max_out; ++i) {
