@@ -1,6 +1,7 @@
 #pragma once
 // The benchmark scenes, written once for MLCG (case TOML) and once for LIGGGHTS (data file + input
 // script) from the same numbers.
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -44,6 +45,16 @@ struct Files {
   std::filesystem::path silo_stl, lid_stl;
 };
 
+// A path as a TOML basic string (backslashes and quotes escaped).
+std::string toml_quoted(const std::filesystem::path& p);
+// The materials ("particle", walls "steel"), their interactions, the contact model and the domain.
+std::string materials_and_domain(const BenchParams& p, const std::array<double, 3>& lo,
+                                 const std::array<double, 3>& hi);
+// Pouring `count` particles close above the heap into `region` (a TOML inline table) and the end:
+// an event "settled" when the mean speed is below p.settle_speed (latest p.settle_latest), + p.settle_extra.
+std::string pour_and_settle(const BenchParams& p, const std::string& region, long count);
+// A measured run's start and end: the particles of bed_h5 at rest, run to `end`, only the final output.
+std::string start_from_bed(const std::filesystem::path& bed_h5, double end);
 // Fill the silo (lid closed) by pouring close above the heap and settle it, at prepare_dt.
 std::string prepare_case(const BenchParams& p, const Files& f);
 // A measured MLCG scene: the bed snapshot, the silo mesh (+ lid for Scene::Bed), dt, skin, steps,
