@@ -28,6 +28,8 @@ import re
 import subprocess
 import sys
 import tomllib
+import xml.etree.ElementTree as ET
+from functools import lru_cache
 from pathlib import Path
 
 from paraview import servermanager
@@ -42,6 +44,12 @@ class Failure(Exception):
 
 def h5_datasets(path):
     """{dataset name: shape} of an HDF5 file's root group, via h5ls (hdf5-tools)."""
+    return dict(_h5_datasets(str(path)))
+
+
+@lru_cache(maxsize=None)
+def _h5_datasets(name):
+    path = Path(name)
     if not path.is_file():
         raise Failure(f"{path.name} is missing")
     out = subprocess.run(["h5ls", str(path)], capture_output=True, text=True)
@@ -53,7 +61,26 @@ def h5_datasets(path):
         if m:
             dims = [d.strip().split("/")[0] for d in m.group(2).split(",") if d.strip()]
             sets[m.group(1)] = tuple(int(d) for d in dims)
-    return sets
+    return tuple(sets.items())
+
+
+def check_references(xmf):
+    """Every HDF5 dataset the XDMF file refers to exists. ParaView's XDMF 3 library aborts the whole
+    process on a missing file or dataset (it throws through the reader), so this is asked first, and
+    the file is named; whether the declared sizes match is left to what ParaView reads."""
+    try:
+        root = ET.parse(xmf).getroot()
+    except ET.ParseError as e:
+        raise Failure(f"not well-formed XML: {e}")
+    for item in root.iter("DataItem"):
+        if item.get("Format") != "HDF":
+            continue
+        file, _, dataset = (item.text or "").strip().partition(":/")
+        h5 = xmf.parent / file
+        if not h5.is_file():
+            raise Failure(f"refers to {file}, which is missing")
+        if dataset not in h5_datasets(h5):
+            raise Failure(f"refers to {file}:/{dataset}, which that file does not hold")
 
 
 def series_counts(level_dir):
@@ -214,6 +241,8 @@ def check_run(reader, run):
                 yield xmf, None, "missing (the run writes it)"
                 continue
             try:
+                print(f"paraview_check: reading {xmf}", file=sys.stderr, flush=True)
+                check_references(xmf)
                 msg = check_particles(reader, level, xmf, summary) if kind == "particles" else check_grid(reader, xmf)
                 yield xmf, msg, None
             except Failure as e:
@@ -245,9 +274,9 @@ def main():
             name = os.path.relpath(xmf, run.parent)
             if err:
                 failed += 1
-                print(f"FAIL {name}: {err}")
+                print(f"FAIL {name}: {err}", flush=True)
             else:
-                print(f"OK   {name}: {msg}")
+                print(f"OK   {name}: {msg}", flush=True)
     print(f"paraview_check: ParaView {simple.GetParaViewVersion()}, {a.reader}: {files} files, {failed} failed")
     return 1 if failed else 0
 
