@@ -45,13 +45,18 @@ def main():
     ap.add_argument("--tolerance", type=float, default=1e-3, help="largest time difference between levels [s]")
     ap.add_argument("--speed-max", type=float, default=0.0, help="top of the colour scale [m/s]; 0 = the largest")
     ap.add_argument("--title", default="")
+    ap.add_argument("--colors", type=int, default=0,
+                    help="reduce the PNG to this many colours (Pillow), for a smaller file; 0 = keep")
+    ap.add_argument("--zoom", type=float, default=1.25, help="camera dolly after fitting everything in view")
     a = ap.parse_args()
 
     run = a.run.resolve()
     levels = sorted((run / "levels").glob("*/particles.xmf")) if (run / "levels").is_dir() else []
     levels = [x.parent for x in levels] or [run]
-    summary = json.loads((run / "summary.json").read_text())
-    alpha = {l["name"]: l.get("alpha", 1.0) for l in summary["levels"]}
+    # Each level's own summary.json (written at every checkpoint, so a run still going can be drawn).
+    summaries = {d.name: json.loads((d / "summary.json").read_text()) for d in levels}
+    alpha = {name: s["levels"][0].get("alpha", 1.0) for name, s in summaries.items()}
+    summary = next(iter(summaries.values()))
     order = sorted(levels, key=lambda d: -alpha.get(d.name, 1.0))  # coarsest first
     case = tomllib.loads((order[-1] / "case.toml").read_text())
     regions = case.get("coupling", {}).get("regions", [])
@@ -128,13 +133,16 @@ def main():
     bar.ComponentTitle = ""
     bar.TitleColor = bar.LabelColor = [0.1, 0.1, 0.1]
     bar.WindowLocation = "Any Location"
-    bar.Position = [0.86, 0.30]
-    bar.ScalarBarLength = 0.4
+    bar.Orientation = "Horizontal"
+    bar.Position = [0.30, 0.03]
+    bar.ScalarBarLength = 0.40
     bar.Visibility = 1
 
     t = sum(times.values()) / len(times)
     names = ", ".join(f"{d.name} (alpha {alpha.get(d.name, 1.0):g})" for d in order)
-    title = a.title or (f"{summary.get('title', run.name)}, t = {t:.2f} s\n{names}; cut open at y = 0"
+    fired = [f"{e['name']} at {e['time']:.2f} s" for e in summary.get("events", []) if e.get("fired")]
+    when = f"t = {t:.2f} s" + (f" ({', '.join(fired)})" if fired else "")
+    title = a.title or (f"{summary.get('title', run.name)}, {when}\n{names}; cut open at y = 0"
                         + ("; outlined: fine region" if regions else ""))
     text = simple.Text(Text=title)
     td = simple.Show(text, view)
@@ -148,10 +156,14 @@ def main():
     simple.ResetCamera(view)
     view.CameraParallelProjection = 0
     cam = simple.GetActiveCamera()
-    cam.Dolly(1.25)
+    cam.Dolly(a.zoom)
     simple.Render(view)
     a.out.parent.mkdir(parents=True, exist_ok=True)
     simple.SaveScreenshot(str(a.out), view, ImageResolution=a.size, CompressionLevel="9")
+    if a.colors:
+        from PIL import Image  # python3-pil, a dependency of python3-matplotlib (scripts/setup.sh)
+        Image.open(a.out).convert("RGB").quantize(colors=a.colors, method=Image.Quantize.FASTOCTREE,
+                                                  dither=Image.Dither.FLOYDSTEINBERG).save(a.out, optimize=True)
     counts = {n: p.GetDataInformation().GetNumberOfPoints() for n, p in shown}
     print(f"render_paraview: {a.out} ({a.size[0]}x{a.size[1]}), snapshots at {times}, "
           f"particles drawn {counts}, speed scale 0 .. {a.speed_max or top_speed:.3g} m/s", flush=True)
