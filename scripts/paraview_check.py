@@ -7,7 +7,8 @@ RUN_DIR is a single-level run folder or a hierarchy's (its levels in levels/<nam
 display: this script renders nothing. For every level folder (a folder with summary.json and
 series.csv) it expects particles.xmf and grids/<name>.xmf for every [[grids]] entry of the level's
 case.toml, and refuses any other .xmf/.xdmf file it cannot place. For every file and every time step
-the reader offers, it compares
+the reader offers, it compares (after checking that every HDF5 file and dataset the XDMF file refers
+to exists: ParaView's XDMF 3 library aborts the process on a missing one)
 
 - the time steps with the series' index.json (one per entry, same times);
 - particles: ParaView's point count with the length of the HDF5 datasets of that snapshot (read with
@@ -32,7 +33,6 @@ import xml.etree.ElementTree as ET
 from functools import lru_cache
 from pathlib import Path
 
-from paraview import servermanager
 from paraview import simple
 
 GEOMETRY = {"position", "connectivity"}  # snapshot datasets XDMF maps to points and cells, not arrays
