@@ -1,8 +1,21 @@
 #!/bin/sh
 # Installs MLCG's dependencies from Debian 12 packages (only those missing)
 # and builds Release into build/ (executables in build/bin/). Safe to re-run.
+#
+#   scripts/setup.sh --with-paraview   also installs ParaView 5.11 for scripts/paraview_check.py and
+#       scripts/render_paraview.py: paraview, python3-paraview (pvpython; only a recommendation of
+#       paraview, which --no-install-recommends leaves out) and xvfb + xauth (Debian's ParaView renders
+#       only through an X server; xvfb-run provides one). Without the option nothing changes.
 set -e
 cd "$(dirname "$0")/.."
+
+with_paraview=""
+for arg in "$@"; do
+  case "$arg" in
+    --with-paraview) with_paraview=1 ;;
+    *) echo "setup: unknown option '$arg' (allowed: --with-paraview)" >&2; exit 2 ;;
+  esac
+done
 
 # clang and libclang-rt-14-dev: libFuzzer for scripts/fuzz.sh. iproute2: `ip netns`, the hosts of the
 # multi-host test (minimal Debian images lack it).
@@ -10,6 +23,7 @@ PACKAGES="build-essential cmake libopenmpi-dev openmpi-bin libeigen3-dev libhdf5
 libprotobuf-dev protobuf-compiler libzmq3-dev cppzmq-dev libtomlplusplus-dev libcli11-dev \
 libspdlog-dev libfmt-dev libgtest-dev libbenchmark-dev nlohmann-json3-dev python3-h5py python3-matplotlib \
 clang libclang-rt-14-dev iproute2"
+[ -z "$with_paraview" ] || PACKAGES="$PACKAGES paraview python3-paraview xvfb xauth"
 
 missing=""
 for p in $PACKAGES; do
