@@ -178,20 +178,28 @@ void count_particles(const config::CaseSpec& cs, const std::vector<RegionInfo>& 
 }
 
 // Every level's guard, particles and particle-steps to `end`, coarsest first (a fine level's estimate needs
-// its coarse level's count). Throws StabilityError as the level would refuse.
+// its coarse level's count). Throws StabilityError with every level's refusal: under `mlcg run` each level
+// refuses on its own, and which one speaks first is a race.
 std::vector<LevelCost> level_costs(const config::CaseSpec& cs, const std::vector<RegionInfo>& regions, double end) {
   std::vector<const config::LevelSpec*> order;
   for (const auto& l : cs.levels) order.push_back(&l);
   std::stable_sort(order.begin(), order.end(), [](auto* a, auto* b) { return a->alpha > b->alpha; });
   std::vector<LevelCost> out;
+  std::string refused;
   for (const auto* l : order) {
     LevelCost lc;
     lc.spec = l;
-    lc.preview = preview_level(cs, *l);
+    try {
+      lc.preview = preview_level(cs, *l);
+    } catch (const StabilityError& e) {
+      refused += (refused.empty() ? "" : "\nerror: ") + std::string(e.what());
+      continue;
+    }
     count_particles(cs, regions, out, lc);
     lc.particle_steps = end > 0.0 ? lc.particles * end / l->dt : 0.0;
     out.push_back(std::move(lc));
   }
+  if (!refused.empty()) throw StabilityError(refused);
   return out;
 }
 

@@ -158,6 +158,25 @@ TEST(Check, RefusesWhatTheTimeStepGuardRefusesWithTheLevelsMessage) {
   fs::remove_all(runs);
 }
 
+// Every level of a hierarchy whose guard refuses is named, with the message that level gives under `mlcg run`
+// (where the first level to refuse ends the run, so which others get to speak is a race).
+TEST(Check, NamesEveryLevelOfAHierarchyWhoseGuardRefuses) {
+  const fs::path bad = edited("cases/stability/coupled/dense_stream.toml", "velocity = [0.0, 0.0, -5.0]",
+                              "velocity = [0.0, 0.0, -30.0]", "check_fast");
+  EXPECT_EQ(run("MLCG_NO_CALIBRATE=1 " + kBin + "/mlcg check " + bad.string() + " > /dev/null 2> " + bad.string() +
+                ".err"),
+            2);
+  const std::string err = slurp(bad.string() + ".err");
+  size_t errors = 0;
+  for (size_t at = err.find("error: "); at != std::string::npos; at = err.find("error: ", at + 1)) ++errors;
+  EXPECT_EQ(errors, 2u) << err;
+  for (const char* part : {"levels[coarse].dt: time step refused", "levels[fine].dt: time step refused", "30.1 m/s",
+                           "use dt <= 2.008e-05 s", "use dt <= 1.004e-05 s"})
+    EXPECT_NE(err.find(part), std::string::npos) << part << " missing in:\n" << err;
+  fs::remove(bad.string() + ".err");
+  fs::remove(bad);
+}
+
 // The estimate against a real run: the quickstart cut to 0.2 s (the lid stays closed: filling and settling,
 // ~3e7 particle-steps). The calibration runs just before the run, so when other work slows the machine
 // both are slowed alike; a load that changes between the two moves the ratio (the bound is a factor 2).
