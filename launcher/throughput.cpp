@@ -62,8 +62,14 @@ double measure(const std::string& dem_level, std::string& why) {
   std::ofstream(dir / "calibration.toml") << calibration_case_text();
   std::fprintf(stderr, "mlcg: measuring this machine's throughput (dem_level, %d particles, %d steps)...\n",
                kSide * kSide * kSide, kSteps);
-  const pid_t pid = spawn({dem_level, (dir / "calibration.toml").string(), "--out", (dir / "run").string(), "--quiet"});
-  const auto r = wait_group({{"dem_level", pid}});
+  GroupResult r;
+  try {  // a missing binary costs the wall time, not the check
+    const pid_t pid = spawn({dem_level, (dir / "calibration.toml").string(), "--out", (dir / "run").string(), "--quiet"});
+    r = wait_group({{"dem_level", pid}});
+  } catch (const std::exception& e) {
+    r.exit_code = 127;
+    std::fprintf(stderr, "mlcg: %s\n", e.what());
+  }
   const auto s = read_json_or_null(dir / "run" / "summary.json");
   double rate = 0.0;
   if (r.exit_code == 0 && s.is_object() && s.contains("levels") && !s["levels"].empty())
