@@ -1,10 +1,15 @@
 // mlcg: the user's entry point. `mlcg run CASE` reads the case, starts exactly
 // the processes it needs (a single-level case: one dem_level, no coupler; a
 // hierarchy: the coupler and every level),
-// forwards Ctrl-C to them and prints the run's summary. `mlcg study CASE_DIR`
-// runs a case folder's variants and compares their error and cost.
+// forwards Ctrl-C to them and prints the run's summary. `mlcg check CASE` makes
+// the same checks without starting anything and estimates the run's cost.
+// `mlcg study CASE_DIR` runs a case folder's variants and compares their error and cost.
 #include <CLI/CLI.hpp>
 
+#include <cstdlib>
+#include <cstring>
+
+#include "check.hpp"
 #include "control.hpp"
 #include "hierarchy.hpp"
 #include "run_case.hpp"
@@ -27,6 +32,17 @@ int main(int argc, char** argv) {
   run->add_option("--hosts", hosts, "place the coupler and the levels on these hosts (README: Runs across hosts); "
                                    "turns CURVE on")->check(CLI::ExistingFile);
   run->add_flag("--curve", curve, "secure the bus with CURVE keys issued for this run (in <run>/keys)");
+  auto* check = app.add_subcommand("check", "check a case as `run` would and estimate its cost (particles, "
+                                            "particle-steps, wall time on this machine); start nothing");
+  launcher::CheckOptions co;
+  bool calibrate = false, no_calibrate = false;
+  check->add_option("case", co.case_file, "case file (TOML)")->required()->check(CLI::ExistingFile);
+  check->add_option("--out", co.out_dir, "check this run folder as `run --out` would (nothing is created)");
+  check->add_option("--hosts", co.hosts, "check this hostfile as `run --hosts` would")->check(CLI::ExistingFile);
+  check->add_flag("--curve", co.curve, "check as `run --curve` would");
+  check->add_flag("--calibrate", calibrate, "measure this machine's throughput again (a few seconds)");
+  check->add_flag("--no-calibrate", no_calibrate, "never measure: use the cached throughput or give no wall time "
+                                                  "(also MLCG_NO_CALIBRATE=1)");
   auto* study = app.add_subcommand("study", "error against run time: run a case folder's variants and compare them");
   launcher::StudyOptions so;
   bool no_plots = false;
@@ -58,6 +74,14 @@ int main(int argc, char** argv) {
   swap->add_option("--binary", swap_binary, "the new solver binary (same protocol)")->required();
   CLI11_PARSE(app, argc, argv);
   if (run->parsed()) return launcher::run_case(case_file, out_dir, quiet, hosts, curve);
+  if (check->parsed()) {
+    const char* env = std::getenv("MLCG_NO_CALIBRATE");
+    const bool skip = no_calibrate || (env && *env && std::strcmp(env, "0") != 0);
+    co.calibration = calibrate ? launcher::Calibration::Force
+                     : skip    ? launcher::Calibration::Skip
+                               : launcher::Calibration::Cached;
+    return launcher::check_case(co);
+  }
   so.plots = !no_plots;
   if (study->parsed()) return launcher::run_study(so);
   if (swap->parsed()) return launcher::swap_command(run_dir, swap_level, swap_binary);

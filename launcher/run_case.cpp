@@ -91,15 +91,28 @@ int run_launched(const config::CaseSpec& cs, const std::string& case_file, const
 
 }  // namespace
 
-void check_regions(const config::CaseSpec& cs) {
-  const auto report = config::check_region_rules(cs);
+config::RegionRuleReport check_regions(const config::CaseSpec& cs) {
+  auto report = config::check_region_rules(cs);
   for (const auto& n : report.notes) std::printf("mlcg: %s\n", n.c_str());
   std::fflush(stdout);
   for (const auto& w : report.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  if (report.errors.empty()) return;
+  if (report.errors.empty()) return report;
   std::string all;
   for (const auto& e : report.errors) all += (all.empty() ? "" : "\nerror: ") + e;
   throw std::runtime_error(all);
+}
+
+PreparedCase prepare_case(const std::string& case_file, const std::string& hosts, bool curve) {
+  PreparedCase p;
+  p.cs = config::load_case(case_file);
+  p.regions = check_regions(p.cs);
+  if (!hosts.empty() && p.cs.levels.size() < 2)
+    throw std::runtime_error("--hosts places the coupler and the levels of a multi-level case; " + case_file +
+                             " has one level (start it with mpirun --hostfile)");
+  if (!hosts.empty()) p.placement = launcher::Placement(launcher::read_hostfile(hosts), p.cs);
+  if (curve) p.placement.enable_curve();
+  p.placement.check(p.cs);
+  return p;
 }
 
 int run_case(const std::string& case_file, std::string out_dir, bool quiet, const std::string& hosts, bool curve) {
@@ -107,14 +120,9 @@ int run_case(const std::string& case_file, std::string out_dir, bool quiet, cons
   launcher::Placement placement;
   std::unique_ptr<RunLock> lock;  // held until the run ends
   try {
-    cs = config::load_case(case_file);
-    check_regions(cs);
-    if (!hosts.empty() && cs.levels.size() < 2)
-      throw std::runtime_error("--hosts places the coupler and the levels of a multi-level case; " + case_file +
-                               " has one level (start it with mpirun --hostfile)");
-    if (!hosts.empty()) placement = launcher::Placement(launcher::read_hostfile(hosts), cs);
-    if (curve) placement.enable_curve();
-    placement.check(cs);
+    auto prepared = prepare_case(case_file, hosts, curve);  // the checks `mlcg check` makes too
+    cs = std::move(prepared.cs);
+    placement = std::move(prepared.placement);
     if (out_dir.empty()) out_dir = default_run_dir(case_file);
     lock = claim_new_run_folder(out_dir);  // before anything is written there
   } catch (const std::exception& e) {

@@ -4,12 +4,25 @@
 #include <string>
 
 #include "config/case_spec.hpp"
+#include "config/region_rules.hpp"
+#include "hosts.hpp"
 
 namespace mlcg::launcher {
 
 // The coupling-region rules of a hierarchy (config/region_rules.hpp), before anything starts:
 // prints the notes (stdout) and warnings (stderr); throws std::runtime_error with every refusal.
-void check_regions(const config::CaseSpec& cs);
+// Returns the report (for `mlcg check`'s verdict).
+config::RegionRuleReport check_regions(const config::CaseSpec& cs);
+
+// Everything `mlcg run` checks before it starts anything, in one place for `mlcg run` and `mlcg check`:
+// the case (parser), the region rules, the hostfile and the bus security. Throws with the message
+// `mlcg run` prints after "error: ".
+struct PreparedCase {
+  config::CaseSpec cs;
+  Placement placement;
+  config::RegionRuleReport regions;
+};
+PreparedCase prepare_case(const std::string& case_file, const std::string& hosts, bool curve);
 
 // Runs the case into out_dir (default runs/<case>-<date>). Returns the run's exit code:
 // 0 completed, 2 the case or the hostfile was refused, else the code of the process that failed.

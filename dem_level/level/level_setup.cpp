@@ -16,6 +16,7 @@
 #include "io/snapshot_series.hpp"
 #include "level/initial_state.hpp"
 #include "level/level.hpp"
+#include "level/stability_preview.hpp"
 #include "scene/walls_from_case.hpp"
 
 namespace mlcg {
@@ -150,17 +151,9 @@ void Level::setup() {
   // Stability guard, over every kind of particle this level will hold.
   std::vector<ParticleKind> kinds;
   double r_max = 0.0;
-  for (const auto& in : ins_) {
-    const auto& q = in.params();
-    ParticleKind k;
-    k.material = q.material;
-    k.r_min = q.dist == InsertionParams::Dist::Constant ? q.r_const : q.r_min;
-    if (q.dist == InsertionParams::Dist::Discrete) k.r_min = *std::min_element(q.values.begin(), q.values.end());
-    k.r_max = q.dist == InsertionParams::Dist::Constant ? q.r_const : q.r_max;
-    if (q.dist == InsertionParams::Dist::Discrete) k.r_max = *std::max_element(q.values.begin(), q.values.end());
-    k.speed = norm(q.velocity);
-    kinds.push_back(k);
-    r_max = std::max(r_max, k.r_max);
+  for (const auto& in : cs_.insertions) {  // the kinds `mlcg check` previews too (stability_preview.hpp)
+    kinds.push_back(insertion_kind(in, alpha_, mt_));
+    r_max = std::max(r_max, kinds.back().r_max);
   }
   for (const auto& k : merge_kinds(explicit_kinds)) {  // one kind per particle would make the guard O(N^2)
     kinds.push_back(k);
@@ -168,9 +161,7 @@ void Level::setup() {
   }
   std::vector<int> wall_mats;
   for (size_t w = 0; w < walls_.walls(); ++w) wall_mats.push_back(walls_.info(w).material);
-  const double g = norm(gravity_);
-  const Vec3 gdir = g > 0.0 ? gravity_ / g : Vec3{0, 0, -1};
-  const double height = std::fabs(dot(dom_hi_ - dom_lo_, gdir));
+  const double height = guard_height(cs_);
   // A restart continues from a state the guard already let start.
   const InitialOverlap overlaps = opt_.restart.empty() ? initial_overlaps(placed, mt_) : InitialOverlap{};
   stab_ = check_stability(cs_, lvl_, mt_, kinds, wall_mats, height, overlaps);
