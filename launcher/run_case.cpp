@@ -19,6 +19,7 @@
 #include "hierarchy.hpp"
 #include "hosts.hpp"
 #include "io/atomic_file.hpp"
+#include "level/stability_preview.hpp"
 #include "process.hpp"
 #include "run_folder.hpp"
 
@@ -112,6 +113,17 @@ PreparedCase prepare_case(const std::string& case_file, const std::string& hosts
   if (!hosts.empty()) p.placement = launcher::Placement(launcher::read_hostfile(hosts), p.cs);
   if (curve) p.placement.enable_curve();
   p.placement.check(p.cs);
+  // Each level of a hierarchy would refuse its time step on its own, and which one spoke before the
+  // launcher stopped the others was a race: refuse here, naming every level, before anything starts.
+  if (p.cs.levels.size() > 1) {
+    std::string refused;
+    for (const auto& l : p.cs.levels) try {
+        preview_level(p.cs, l);
+      } catch (const StabilityError& e) {
+        refused += (refused.empty() ? "" : "\nerror: ") + std::string(e.what());
+      }
+    if (!refused.empty()) throw std::runtime_error(refused);
+  }
   return p;
 }
 
