@@ -25,7 +25,6 @@
 namespace fs = std::filesystem;
 
 namespace mlcg::launcher {
-namespace {
 
 std::string default_run_dir(const std::string& case_file) {
   const std::time_t now = std::time(nullptr);
@@ -35,6 +34,8 @@ std::string default_run_dir(const std::string& case_file) {
   return (fs::path("runs") / fmt::format("{}-{}-{}", p.parent_path().filename().string(), p.stem().string(), stamp))
       .string();
 }
+
+namespace {
 
 // `code`: the level's exit code. A level that failed on a full disk may have left the summary it wrote last.
 void print_summary(const fs::path& run_dir, int code) {
@@ -112,7 +113,18 @@ int run_case(const std::string& case_file, std::string out_dir, bool quiet, cons
     if (!hosts.empty() && cs.levels.size() < 2)
       throw std::runtime_error("--hosts places the coupler and the levels of a multi-level case; " + case_file +
                                " has one level (start it with mpirun --hostfile)");
-    if (!hosts.empty()) placement = launcher::Placement(launcher::read_hostfile(hosts), cs);
+    if (!hosts.empty()) {
+      placement = launcher::Placement(launcher::read_hostfile(hosts), cs);
+    } else if (cs.levels.size() > 1) {
+      // Inside a Slurm allocation: the allocation's nodes and tasks are the hosts (the same placement as a
+      // hostfile's); Open MPI's mpirun starts the remote processes through Slurm (srun).
+      if (const auto hf = launcher::slurm_hosts()) {
+        std::string list;
+        for (const auto& h : hf->hosts) list += fmt::format("{}{} (slots={})", list.empty() ? "" : ", ", h.name, h.slots);
+        std::printf("mlcg: inside %s: hosts %s\n", hf->path.c_str(), list.c_str());
+        placement = launcher::Placement(*hf, cs);
+      }
+    }
     if (curve) placement.enable_curve();
     placement.check(cs);
     if (out_dir.empty()) out_dir = default_run_dir(case_file);

@@ -11,6 +11,9 @@ namespace mlcg::launcher {
 // prints the notes (stdout) and warnings (stderr); throws std::runtime_error with every refusal.
 void check_regions(const config::CaseSpec& cs);
 
+// runs/<case folder>-<case stem>-<local date and time>: a run's folder when --out is not given.
+std::string default_run_dir(const std::string& case_file);
+
 // Runs the case into out_dir (default runs/<case>-<date>). Returns the run's exit code:
 // 0 completed, 2 the case or the hostfile was refused, else the code of the process that failed.
 // hosts: an Open MPI style hostfile placing the coupler and the levels (README: Runs across
