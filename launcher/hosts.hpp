@@ -6,15 +6,20 @@
 // Hostfile (Open MPI style, one entry per line, `#` starts a comment):
 //   NAME slots=N [address=IP] [coupler] [levels=A,B]   a host: N processes/ranks;
 //                      `coupler` puts the coupler there (default: the first host),
-//                      `levels=` the named [[levels]] (others: first host with room)
+//                      `levels=` the named [[levels]] (others: first host with room;
+//                      a level with more ranks than any host has free spans several,
+//                      as does a level named on several hosts)
 //   rsh_agent PATH     mpirun starts remote processes through PATH (plm_rsh_agent)
 //   mca KEY VALUE      passed to every mpirun as --mca KEY VALUE
+// Inside a Slurm allocation the hosts come from Slurm's environment instead
+// (slurm_hosts: the allocation's nodes and their task counts as slots).
 // With hosts, every process (the coupler too) is started by mpirun --host, the
 // coupler binds tcp://ADDRESS:* on its host and reports the port through a file
 // in the run folder, and the bus uses CURVE with keys issued for this run.
 #include <sys/types.h>
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -46,6 +51,17 @@ struct HostFile {
 };
 HostFile read_hostfile(const std::string& path);
 
+// Slurm's compressed lists: "n[1-3,5],m" -> n1 n2 n3 n5 m (the form of SLURM_JOB_NODELIST), and
+// "2(x3),1" -> 2 2 2 1 (SLURM_TASKS_PER_NODE, SLURM_JOB_CPUS_PER_NODE). Throw HostError when malformed.
+std::vector<std::string> expand_slurm_nodelist(const std::string& list);
+std::vector<int> expand_slurm_counts(const std::string& list);
+// Inside a Slurm allocation (SLURM_JOB_ID and SLURM_JOB_NODELIST set): the allocation's nodes as hosts,
+// slots = the job's tasks on each (SLURM_TASKS_PER_NODE, else SLURM_JOB_CPUS_PER_NODE), the coupler on
+// the first node, its address Slurm's NodeAddr of that node (scontrol) when that differs from the name.
+// `env` looks a variable up ("" when unset; getenv when not given). std::nullopt outside an allocation.
+using EnvLookup = std::function<std::string(const std::string&)>;
+std::optional<HostFile> slurm_hosts(const EnvLookup& env = {});
+
 class Placement {
  public:
   Placement() = default;  // local: this machine, the given endpoint, no CURVE
@@ -74,11 +90,12 @@ class Placement {
   std::string describe() const;
 
  private:
-  const Host& host_of(const std::string& who) const;
+  const Host& host_of(const std::string& who) const;  // the (first) host of `who`
 
   bool curve_ = false;
   std::vector<Host> hosts_;
-  std::map<std::string, size_t> where_;  // "coupler" / level name -> host index
+  // "coupler" / level name -> (host index, its ranks there), one entry per host it runs on
+  std::map<std::string, std::vector<std::pair<size_t, int>>> where_;
   std::string rsh_agent_;
   std::vector<std::pair<std::string, std::string>> mca_;
   std::string endpoint_;

@@ -4,6 +4,7 @@
 // forwards Ctrl-C to them and prints the run's summary. `mlcg check CASE` makes
 // the same checks without starting anything and estimates the run's cost.
 // `mlcg study CASE_DIR` runs a case folder's variants and compares their error and cost.
+// `mlcg submit CASE` writes a Slurm batch script for the case and submits it.
 #include <CLI/CLI.hpp>
 
 #include <cstdlib>
@@ -15,6 +16,7 @@
 #include "run_case.hpp"
 #include "status.hpp"
 #include "study.hpp"
+#include "submit.hpp"
 
 using namespace mlcg;
 
@@ -30,7 +32,8 @@ int main(int argc, char** argv) {
   std::string hosts;
   bool curve = false;
   run->add_option("--hosts", hosts, "place the coupler and the levels on these hosts (README: Runs across hosts); "
-                                   "turns CURVE on")->check(CLI::ExistingFile);
+                                   "turns CURVE on. Inside a Slurm allocation the allocation's nodes are the hosts "
+                                   "without it")->check(CLI::ExistingFile);
   run->add_flag("--curve", curve, "secure the bus with CURVE keys issued for this run (in <run>/keys)");
   auto* check = app.add_subcommand("check", "check a case as `run` would and estimate its cost (particles, "
                                             "particle-steps, wall time on this machine); start nothing");
@@ -43,6 +46,17 @@ int main(int argc, char** argv) {
   check->add_flag("--calibrate", calibrate, "measure this machine's throughput again (a few seconds)");
   check->add_flag("--no-calibrate", no_calibrate, "never measure: use the cached throughput or give no wall time "
                                                   "(also MLCG_NO_CALIBRATE=1)");
+  auto* submit = app.add_subcommand("submit", "write a Slurm batch script for a case (--ntasks: the levels' ranks + "
+                                              "the coupler) into its run folder and submit it with sbatch; other "
+                                              "options (e.g. --partition=P --time=1:00:00) go to sbatch");
+  submit->add_option("case", case_file, "case file (TOML)")->required()->check(CLI::ExistingFile);
+  submit->add_option("--out", out_dir, "run folder (default runs/<case>-<date>); holds mlcg_submit.sh and the job's "
+                                       "output slurm-<job id>.out");
+  submit->add_flag("--quiet", quiet, "the run prints no progress lines into the job's output");
+  submit->allow_extras();
+  submit->footer("Arguments after the case other than --out and --quiet go to sbatch unchanged, e.g.\n"
+                 "  mlcg submit cases/quickstart/mlcg.toml --partition=debug --time=0:30:00\n"
+                 "Inside the job, `mlcg run` places the coupler and the levels on the allocation's nodes.");
   auto* study = app.add_subcommand("study", "error against run time: run a case folder's variants and compare them");
   launcher::StudyOptions so;
   bool no_plots = false;
@@ -82,6 +96,7 @@ int main(int argc, char** argv) {
                                : launcher::Calibration::Cached;
     return launcher::check_case(co);
   }
+  if (submit->parsed()) return launcher::submit_case(case_file, out_dir, quiet, submit->remaining());
   so.plots = !no_plots;
   if (study->parsed()) return launcher::run_study(so);
   if (swap->parsed()) return launcher::swap_command(run_dir, swap_level, swap_binary);

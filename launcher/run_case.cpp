@@ -26,7 +26,6 @@
 namespace fs = std::filesystem;
 
 namespace mlcg::launcher {
-namespace {
 
 std::string default_run_dir(const std::string& case_file) {
   const std::time_t now = std::time(nullptr);
@@ -36,6 +35,8 @@ std::string default_run_dir(const std::string& case_file) {
   return (fs::path("runs") / fmt::format("{}-{}-{}", p.parent_path().filename().string(), p.stem().string(), stamp))
       .string();
 }
+
+namespace {
 
 // `code`: the level's exit code. A level that failed on a full disk may have left the summary it wrote last.
 void print_summary(const fs::path& run_dir, int code) {
@@ -110,7 +111,18 @@ PreparedCase prepare_case(const std::string& case_file, const std::string& hosts
   if (!hosts.empty() && p.cs.levels.size() < 2)
     throw std::runtime_error("--hosts places the coupler and the levels of a multi-level case; " + case_file +
                              " has one level (start it with mpirun --hostfile)");
-  if (!hosts.empty()) p.placement = launcher::Placement(launcher::read_hostfile(hosts), p.cs);
+  if (!hosts.empty()) {
+    p.placement = launcher::Placement(launcher::read_hostfile(hosts), p.cs);
+  } else if (p.cs.levels.size() > 1) {
+    // Inside a Slurm allocation: the allocation's nodes and tasks are the hosts (the same placement as a
+    // hostfile's); Open MPI's mpirun starts the remote processes through Slurm (srun).
+    if (const auto hf = launcher::slurm_hosts()) {
+      std::string list;
+      for (const auto& h : hf->hosts) list += fmt::format("{}{} (slots={})", list.empty() ? "" : ", ", h.name, h.slots);
+      std::printf("mlcg: inside %s: hosts %s\n", hf->path.c_str(), list.c_str());
+      p.placement = launcher::Placement(*hf, p.cs);
+    }
+  }
   if (curve) p.placement.enable_curve();
   p.placement.check(p.cs);
   // Each level of a hierarchy would refuse its time step on its own, and which one spoke before the

@@ -24,6 +24,9 @@ struct PreparedCase {
 };
 PreparedCase prepare_case(const std::string& case_file, const std::string& hosts, bool curve);
 
+// runs/<case folder>-<case stem>-<local date and time>: a run's folder when --out is not given.
+std::string default_run_dir(const std::string& case_file);
+
 // Runs the case into out_dir (default runs/<case>-<date>). Returns the run's exit code:
 // 0 completed, 2 the case or the hostfile was refused, else the code of the process that failed.
 // hosts: an Open MPI style hostfile placing the coupler and the levels (README: Runs across

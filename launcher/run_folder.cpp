@@ -1,5 +1,6 @@
 #include "run_folder.hpp"
 
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -37,6 +38,17 @@ std::string holder_of(int fd) {
 
 }  // namespace
 
+bool submission_file(const std::string& name) {
+  if (name == kLockFile || name == kSubmitScript) return true;
+  const std::string pre = "slurm-", post = ".out";
+  if (name.size() <= pre.size() + post.size() || name.rfind(pre, 0) != 0 ||
+      name.compare(name.size() - post.size(), post.size(), post) != 0)
+    return false;
+  for (size_t k = pre.size(); k < name.size() - post.size(); ++k)
+    if (!std::isdigit(static_cast<unsigned char>(name[k]))) return false;
+  return true;
+}
+
 void check_new_run_folder(const fs::path& dir) {
   std::error_code ec;
   const auto st = fs::status(dir, ec);
@@ -47,7 +59,7 @@ void check_new_run_folder(const fs::path& dir) {
                          "a new folder");
   size_t entries = 0;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
-    entries += it->path().filename() != kLockFile;  // a lock file alone: a run that wrote nothing else
+    entries += !submission_file(it->path().filename().string());  // a run that wrote nothing else
   if (ec) throw RunFolderError("cannot read --out " + dir.string() + ": " + ec.message());
   if (entries == 0) return;
   const auto summary = read_json_or_null(dir / "summary.json");

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
+#include <string>
 
 namespace mlcg::launcher {
 
@@ -17,7 +18,8 @@ struct RunFolderError : std::runtime_error {
 };
 
 // `mlcg run --out DIR`: DIR must be missing or an empty folder (a leftover launcher.lock alone counts as
-// empty). Throws RunFolderError otherwise; writes nothing.
+// empty, as do the files `mlcg submit` puts there first: submission_file). Throws RunFolderError otherwise;
+// writes nothing.
 void check_new_run_folder(const std::filesystem::path& dir);
 
 // The launcher's hold on a run folder: taken with LOCK_EX | LOCK_NB, released when this object
@@ -35,6 +37,10 @@ class RunLock {
 };
 
 inline constexpr const char* kLockFile = "launcher.lock";
+// `mlcg submit`'s batch script in the run folder; Slurm writes the job's output beside it (slurm-<job id>.out).
+inline constexpr const char* kSubmitScript = "mlcg_submit.sh";
+// launcher.lock, mlcg_submit.sh and slurm-<digits>.out: files a folder may hold before its run starts.
+bool submission_file(const std::string& name);
 
 // `mlcg run --out DIR`: checks DIR (check_new_run_folder), creates it, locks it and checks it again
 // under the lock (another launcher may have used it in between). Throws RunFolderError.

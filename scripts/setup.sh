@@ -18,11 +18,12 @@ for arg in "$@"; do
 done
 
 # clang and libclang-rt-14-dev: libFuzzer for scripts/fuzz.sh. iproute2: `ip netns`, the hosts of the
-# multi-host test (minimal Debian images lack it).
+# multi-host test (minimal Debian images lack it). slurm-wlm and munge: the Slurm test starts its own
+# munged, slurmctld and slurmd with a configuration, socket and ports of its own (tests/slurm).
 PACKAGES="build-essential cmake libopenmpi-dev openmpi-bin libeigen3-dev libhdf5-dev hdf5-tools \
 libprotobuf-dev protobuf-compiler libzmq3-dev cppzmq-dev libtomlplusplus-dev libcli11-dev \
 libspdlog-dev libfmt-dev libgtest-dev libbenchmark-dev nlohmann-json3-dev python3-h5py python3-matplotlib \
-clang libclang-rt-14-dev iproute2"
+clang libclang-rt-14-dev iproute2 slurm-wlm munge"
 [ -z "$with_paraview" ] || PACKAGES="$PACKAGES paraview python3-paraview xvfb xauth"
 
 missing=""

@@ -4,7 +4,8 @@
 // with CURVE. The run hands the mass over exactly as a local run does (the very
 // same per-face numbers), and clients without the run's keys, connecting from
 // the launcher's side of the bridge, are refused and logged by the coupler.
-// A partition of the fine level's host is named and resumed from. Skipped unless root with `ip netns`; the
+// A partition of the fine level's host is named and resumed from. A 4-rank fine level spans two hosts (one
+// mpirun --host mlcg-h2:2,mlcg-h3:2) with the per-face numbers of the same level on this machine. Skipped unless root with `ip netns`; the
 // namespaces are removed in every case (and a later setup removes what a killed run left).
 #include <gtest/gtest.h>
 
@@ -13,7 +14,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <map>
+#include <optional>
 #include <cstdlib>
 #include <thread>
 
@@ -88,6 +92,23 @@ pid_t start(const std::string& cmd) {
     _exit(127);
   }
   return pid;
+}
+
+// The fine level's processes (dem_level ... --level fine) of the run in `dir` in namespace `host`.
+size_t fine_ranks_in(const std::string& host, const fs::path& dir) {
+  const std::string list = "/tmp/mlcg_netns_pids_" + std::to_string(getpid());
+  sh("ip netns pids " + host + " > " + list + " 2>/dev/null");
+  std::ifstream in(list);
+  size_t n = 0;
+  for (std::string pid; in >> pid;) {
+    std::ifstream c("/proc/" + pid + "/cmdline");
+    std::string cmd((std::istreambuf_iterator<char>(c)), std::istreambuf_iterator<char>());
+    std::replace(cmd.begin(), cmd.end(), '\0', ' ');
+    n += cmd.find("/dem_level ") != std::string::npos && cmd.find(" --level fine ") != std::string::npos &&
+         cmd.find(dir.string()) != std::string::npos && cmd.find("mpirun") == std::string::npos;
+  }
+  fs::remove(list);
+  return n;
 }
 
 }  // namespace
@@ -220,6 +241,61 @@ TEST_F(AcrossHosts, APartitionedLevelHostIsNamedAndTheRunResumesToTheLocalResult
   ASSERT_EQ(sh(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
       << read_text(dir.string() + ".out");
   const fs::path local = launch_support::run_hierarchy_case(cfile.string(), "netns_cut_local");
+  launch_support::expect_same_result(dir, local);
+  for (const auto& d : {dir, local}) launch_support::remove_run(d);
+  fs::remove(hostfile);
+  fs::remove(cfile);
+}
+
+// A level across hosts: the 4-rank fine level has more ranks than any host's free slots (2 each), so its ranks
+// are spread over mlcg-h2 and mlcg-h3 by one mpirun (ranks 0-1 on mlcg-h2, 2-3 on mlcg-h3, talking over tcp
+// across the bridge). The same 4-rank decomposition on this machine (shared memory) gives the very same
+// per-face numbers: only the rank count changes summation order (README: Parallel runs), not the hosts.
+TEST_F(AcrossHosts, AFourRankLevelOverTwoHostsMatchesTheOneHostRun) {
+  const fs::path cfile = launch_support::short_quickstart(30.0, 4, "netns_span");
+  const fs::path dir = launch_support::temp("netns_span"), hostfile = dir.string() + ".hosts";
+  fs::remove_all(dir);
+  std::ofstream(hostfile) << "rsh_agent " << kNetns << "/netns_rsh\n"
+                          << "mca oob_tcp_if_include 10.77.0.0/24\n"
+                          // The hosts share this machine's 2 cores: a rank that busy-polls for its neighbour's
+                          // message would hold the core that neighbour needs (100 times slower here).
+                          << "mca mpi_yield_when_idle 1\n"
+                          << "mlcg-h1 slots=2 coupler levels=coarse\n"
+                          << "mlcg-h2 slots=2\n"
+                          << "mlcg-h3 slots=2\n";
+  const std::string out_file = dir.string() + ".out";
+  const pid_t mlcg = launch_support::start_mlcg(
+      {"run", cfile.string(), "--hosts", hostfile.string(), "--out", dir.string(), "--quiet"}, out_file);
+  launch_support::KillOnExit guard{mlcg};
+  // While it runs: the fine level's processes in each host's namespace (the most seen at once).
+  std::map<std::string, size_t> most;
+  std::optional<int> code;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(800);
+  while (!code && std::chrono::steady_clock::now() < until) {
+    for (const char* host : {"mlcg-h1", "mlcg-h2", "mlcg-h3"}) {
+      const size_t n = fine_ranks_in(host, dir);
+      most[host] = std::max(most[host], n);
+    }
+    int status = 0;
+    if (waitpid(mlcg, &status, WNOHANG) == mlcg) code = launch_support::exit_code(status);
+    else std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  guard.pid = code ? -1 : mlcg;
+  const std::string out = read_text(out_file);
+  ASSERT_TRUE(code.has_value()) << "the run did not end within 800 s:\n" << out;
+  ASSERT_EQ(*code, 0) << out;
+  EXPECT_EQ(most["mlcg-h1"], 0u);
+  EXPECT_EQ(most["mlcg-h2"], 2u) << "fine ranks seen on mlcg-h2";
+  EXPECT_EQ(most["mlcg-h3"], 2u) << "fine ranks seen on mlcg-h3";
+  EXPECT_NE(out.find("level 'fine' on hosts mlcg-h2 (2 rank(s)), mlcg-h3 (2 rank(s))"), std::string::npos) << out;
+  const auto s = read_json(dir / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  EXPECT_EQ(s["levels"][1]["ranks"], 4);
+  check_region(dir, s, 0, "fine");
+  // Rank 0 of the fine level (it talks to the coupler) runs on mlcg-h2.
+  const std::string log = read_text(dir / "coupler.log");
+  EXPECT_NE(log.find("accepted the CURVE key of 'fine' from 10.77.0.2"), std::string::npos) << log;
+  const fs::path local = launch_support::run_hierarchy_case(cfile.string(), "netns_span_local");
   launch_support::expect_same_result(dir, local);
   for (const auto& d : {dir, local}) launch_support::remove_run(d);
   fs::remove(hostfile);
