@@ -131,6 +131,9 @@ void Level::finish_run(RunStatus status, const std::string& reason, bool output_
       log_->error("STOPPED: {}; earlier files and checkpoints are intact", reason);
       log_->flush();
     } else {
+      // Timed as output, so that the summary's time stepping excludes the final files (a million
+      // particles' checkpoint takes seconds).
+      PhaseTimer t(times_.output);
       write_outputs(true);
       if (!opt_.out_dir.empty() && status != RunStatus::Failed) write_checkpoint(opt_.out_dir / "checkpoint.h5");
     }
