@@ -48,11 +48,15 @@ int swap_command(const fs::path& run_dir, const std::string& level, const std::s
       throw std::runtime_error("--binary " + binary + ": not an executable file");
     const auto st = read_json_or_null(run_dir / "status.json");
     const pid_t launcher = st.is_object() ? st.value("launcher_pid", -1) : -1;
-    const std::string state = st.is_object() ? st.value("state", "") : "";
-    const bool ended = state == "completed" || state == "interrupted" || state == "failed";
-    if (!st.is_object() || ended || launcher <= 0 || kill(launcher, 0) != 0)
-      throw std::runtime_error(run_dir.string() + " is not running (status.json: " +
-                               (st.is_object() ? st.value("state", "?") : std::string("missing")) + ")");
+    if (!st.is_object() || launcher <= 0 || !launcher_alive(launcher, run_dir)) {
+      const std::string state = st.is_object() ? st.value("state", "?") : std::string("missing");
+      const bool ended = state == "completed" || state == "interrupted" || state == "failed";
+      throw std::runtime_error(run_dir.string() + " is not running (status.json: " + state +
+                               (launcher > 0 && !ended ? "; its launcher (pid " + std::to_string(launcher) +
+                                                             ") has ended"
+                                                       : std::string()) +
+                               ")");
+    }
     const std::string id = "swap-" + std::to_string(getpid()) + "-" +
                            std::to_string(std::chrono::system_clock::now().time_since_epoch().count());
     nlohmann::json j{{"level", level}, {"binary", bin.string()}};

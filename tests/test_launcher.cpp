@@ -426,7 +426,8 @@ TEST(MlcgSwap, AnotherProtocolIsRefusedAndTheOldBinaryContinuesThenACopySwapsIn)
 
 // Found when a swap test hung for 15 minutes: `mlcg swap` waited for an answer from a launcher that had
 // ended but was not yet reaped by its parent (the caller itself, blocked on the swap), a zombie whose pid
-// still answers kill(pid, 0). It now gives up, naming the launcher, within its polling period.
+// still answers kill(pid, 0). It now refuses at once, naming the launcher: the start and the wait ask the
+// same question (launcher_alive).
 TEST(MlcgSwap, AnEndedLauncherNotYetReapedIsNotWaitedFor) {
   const fs::path dir = fs::temp_directory_path() / ("mlcg_swapz_" + std::to_string(::getpid()));
   fs::remove_all(dir);
@@ -441,7 +442,10 @@ TEST(MlcgSwap, AnEndedLauncherNotYetReapedIsNotWaitedFor) {
                      "/dem_level > " + dir.string() + ".swapz 2>&1");
   const std::string out = slurp(dir.string() + ".swapz");
   EXPECT_EQ(rc, 1) << "124: still waiting after 30 s\n" << out;
-  EXPECT_NE(out.find("the launcher (pid " + std::to_string(pid) + ") ended before swapping"), std::string::npos) << out;
+  EXPECT_NE(out.find("is not running (status.json: running; its launcher (pid " + std::to_string(pid) +
+                     ") has ended)"),
+            std::string::npos)
+      << out;
   EXPECT_EQ(wait_exit(pid), 128 + SIGKILL);
   guard.pid = -1;
   // The launcher's death stops its children (LauncherDeath: within 5 s; ended children of a dead launcher
