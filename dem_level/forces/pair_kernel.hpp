@@ -4,7 +4,8 @@
 // measurements or a model without history/rolling carries none of that code.
 //
 // Particles are processed in blocks of 32. The touching pairs of a block are
-// first gathered into small structure-of-arrays buffers (they fit in L1), then
+// first found (indices only: about half the listed pairs do not touch), then
+// gathered into small structure-of-arrays buffers (they fit in L1), then
 // the contact law runs over them in one flat loop without branches, which the
 // compiler vectorizes (one contact alone is a long chain of dependent square
 // roots and divisions), then forces, torques and history are scattered back.
