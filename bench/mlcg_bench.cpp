@@ -69,14 +69,6 @@ std::string load_average() {
   return a + " " + b + " " + c;
 }
 
-double median(std::vector<double> v) {
-  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }), v.end());
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 // ---- the settled silo bed ----------------------------------------------------------------------
 
 nlohmann::json bed_fingerprint(const BenchParams& p) {

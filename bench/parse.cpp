@@ -54,6 +54,14 @@ std::string error_of(const fs::path& console_log, int exit_code) {
 
 }  // namespace
 
+double median(std::vector<double> v) {
+  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }), v.end());
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
 std::string first_line_with(const fs::path& file, const std::string& needle) {
   for (const auto& l : lines_of(slurp(file)))
     if (l.find(needle) != std::string::npos) return trim(l);

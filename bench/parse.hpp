@@ -37,6 +37,9 @@ RunMetrics parse_mlcg(const std::filesystem::path& run_dir, const std::filesyste
 // LIGGGHTS log (the `-log` file, or the console output).
 RunMetrics parse_liggghts(const std::filesystem::path& log, const std::filesystem::path& console_log, int exit_code);
 
+// The median of the values that are not NaN (NaN when none is).
+double median(std::vector<double> v);
+
 // First line of `file` that contains `needle` (trimmed), or "".
 std::string first_line_with(const std::filesystem::path& file, const std::string& needle);
 

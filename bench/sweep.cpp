@@ -121,13 +121,6 @@ std::string measured_case(const BenchParams& p, const Layout& l, int ranks, long
   return s;
 }
 
-double median_of(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 struct Size {
   Layout layout;
   long particles = 0;
@@ -173,8 +166,8 @@ double measure(const BenchParams& p, const SweepOptions& o, const Size& z, int r
     say(fmt::format("{:.1f} s, {:.3g} particle-steps/s per core; other processes kept {:.2f} core(s) busy",
                     m.loop_seconds, m.rate / ranks, r.background_cores()));
   }
-  note = fmt::format("{:.0f} bytes/p, busy {:.2f}", median_of(bytes), median_of(busy));
-  return median_of(rates);
+  note = fmt::format("{:.0f} bytes/p, busy {:.2f}", median(bytes), median(busy));
+  return median(rates);
 }
 
 }  // namespace

@@ -92,11 +92,7 @@ void Level::setup() {
   dom_hi_ = cs_.domain.max;
   rng_.seed(cs_.seed);
 
-  std::vector<Material> mats;
-  for (const auto& m : cs_.materials) mats.push_back({m.name, m.youngs_modulus, m.poisson_ratio, m.density});
-  mt_ = MaterialTable(std::move(mats));
-  for (const auto& in : cs_.interactions)
-    mt_.set_interaction(mt_.index_of(in.a), mt_.index_of(in.b), {in.restitution, in.friction, in.rolling_friction});
+  mt_ = materials_of_case(cs_);
 
   choice_.tangential_history = cs_.contact.tangential == "history";
   choice_.rolling_cdt = cs_.contact.rolling == "cdt";
@@ -337,18 +333,14 @@ void Level::load_initial_state(std::vector<ParticleKind>& kinds, std::vector<Pla
   const auto& in = *cs_.initial;
   const int mat = mt_.index_of(in.material);
   const auto list = read_initial_particles(in, cs_.domain, mat, mt_.material(mat).density);
-  ParticleKind kind{mat, std::numeric_limits<double>::max(), 0.0, 0.0};
   for (const ParticleInit& pi : list) {
-    kind.r_min = std::min(kind.r_min, pi.radius);
-    kind.r_max = std::max(kind.r_max, pi.radius);
-    kind.speed = std::max(kind.speed, norm(pi.v));
     placed.push_back({{pi.x, pi.radius}, mat, pi.id});
     ++explicit_count_;
     explicit_mass_ += sphere_mass(pi.density, pi.radius);
     next_id_ = std::max(next_id_, pi.id + 1);
     if (add && dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
-  if (!list.empty()) kinds.push_back(kind);
+  if (!list.empty()) kinds.push_back(initial_kind(list, mat));  // as mlcg check previews it
   log_->info("initial state: {} particles from {}", list.size(), in.file);
 }
 

@@ -27,6 +27,16 @@ ParticleKind insertion_kind(const config::InsertionSpec& in, double alpha, const
   return k;
 }
 
+ParticleKind initial_kind(const std::vector<ParticleInit>& list, int material) {
+  ParticleKind kind{material, std::numeric_limits<double>::max(), 0.0, 0.0};
+  for (const ParticleInit& pi : list) {
+    kind.r_min = std::min(kind.r_min, pi.radius);
+    kind.r_max = std::max(kind.r_max, pi.radius);
+    kind.speed = std::max(kind.speed, norm(pi.v));
+  }
+  return kind;
+}
+
 double guard_height(const config::CaseSpec& cs) {
   const double g = norm(cs.gravity);
   const Vec3 gdir = g > 0.0 ? cs.gravity / g : Vec3{0, 0, -1};
@@ -52,14 +62,8 @@ LevelPreview preview_level(const config::CaseSpec& cs, const config::LevelSpec& 
   if (cs.initial) {
     const int mat = mt.index_of(cs.initial->material);
     const auto list = read_initial_particles(*cs.initial, cs.domain, mat, mt.material(mat).density);
-    ParticleKind kind{mat, std::numeric_limits<double>::max(), 0.0, 0.0};
-    for (const ParticleInit& pi : list) {
-      kind.r_min = std::min(kind.r_min, pi.radius);
-      kind.r_max = std::max(kind.r_max, pi.radius);
-      kind.speed = std::max(kind.speed, norm(pi.v));
-      placed.push_back({{pi.x, pi.radius}, mat, pi.id});
-    }
-    if (!list.empty()) explicit_kinds.push_back(kind);
+    for (const ParticleInit& pi : list) placed.push_back({{pi.x, pi.radius}, mat, pi.id});
+    if (!list.empty()) explicit_kinds.push_back(initial_kind(list, mat));
   }
   for (const auto& k : merge_kinds(explicit_kinds)) kinds.push_back(k);
   for (const auto& k : kinds) {

@@ -4,9 +4,11 @@
 // insertions' kinds (insertion_kind, shared with the level), the placed particles ([[particles]],
 // [initial]), the walls' materials and the fall height (guard_height, shared).
 #include <cstdint>
+#include <vector>
 
 #include "config/case_spec.hpp"
 #include "core/material.hpp"
+#include "core/particles.hpp"
 #include "level/stability.hpp"
 
 namespace mlcg {
@@ -16,6 +18,9 @@ MaterialTable materials_of_case(const config::CaseSpec& cs);
 
 // The particles an insertion makes at coarse-grain ratio `alpha`: material, extreme radii, speed.
 ParticleKind insertion_kind(const config::InsertionSpec& in, double alpha, const MaterialTable& mt);
+
+// The particles of an [initial] file as one kind of `material`: extreme radii, fastest speed.
+ParticleKind initial_kind(const std::vector<ParticleInit>& list, int material);
 
 // The height over which a particle can fall before an impact: the domain along gravity.
 double guard_height(const config::CaseSpec& cs);
