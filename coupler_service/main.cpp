@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
     if (curve) curve->auth->watch(channel.socket());
     if (!endpoint_file.empty()) mlcg::io::write_file_atomic(endpoint_file, channel.endpoint() + "\n");
     mlcg::coupling::ServiceOptions opt;
-    opt.case_hash = mlcg::bus::case_hash(case_file);
+    opt.case_hash = mlcg::bus::case_hash_of_bytes(mlcg::config::resolved_case_text(case_file));
     opt.out_dir = out_dir;
     opt.max_intervals = max_intervals;
     opt.checkpoint_every = mlcg::coupling::checkpoint_intervals(cs);

@@ -338,8 +338,9 @@ int resume_hierarchy(const std::string& run_folder, bool quiet, bool previous) {
                                               "; start the run again with `mlcg run`"
                                         : damaged_set_advice(*from, damage, run_dir));
     const config::CaseSpec cs = config::load_case(info.case_file);
-    if (bus::case_hash(info.case_file) != from->case_hash)
-      throw std::runtime_error(info.case_file + " changed since the checkpoint (hash " + bus::case_hash(info.case_file) +
+    const std::string hash = bus::case_hash_of_bytes(config::resolved_case_text(info.case_file));
+    if (hash != from->case_hash)
+      throw std::runtime_error(info.case_file + " changed since the checkpoint (hash " + hash +
                                ", the checkpoint's " + from->case_hash + "); a run resumes with the case it started with");
     return supervise_hierarchy(cs, info.case_file, run_dir, quiet, from, Placement{});  // resumes on this machine
   } catch (const config::CaseError& e) {

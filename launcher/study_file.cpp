@@ -151,9 +151,11 @@ void absolutize_files(toml::table& doc, const fs::path& base_dir) {
   fix(doc["initial"].as_table());
 }
 
+// A variant file's case is its base chain resolved: what its run folder keeps, so a change to a base
+// counts as a change of the case.
 void add_case(const Reader& r, int line, const std::string& key, Variant& v) {
-  v.case_text = read_text(v.case_file);
   try {
+    v.case_text = config::resolved_case_text(v.case_file);
     v.seed = config::parse_case(v.case_text, v.case_file).seed;
   } catch (const config::CaseError& e) {
     r.fail(line, key, std::string("the case is refused: ") + e.what());
@@ -172,7 +174,7 @@ toml::table parse_toml(const fs::path& file) {
 toml::table read_base(const Reader& r, int line, const std::string& key, const fs::path& base) {
   toml::table doc;
   try {
-    doc = parse_toml(base);
+    doc = toml::parse(config::resolved_case_text(base.string()), base.string());  // a variant laid over its base
   } catch (const toml::parse_error& e) {
     r.fail(line, key, fmt::format("{}:{}: TOML syntax error: {}", base.string(), e.source().begin.line, e.description()));
   } catch (const config::CaseError& e) {

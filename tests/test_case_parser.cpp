@@ -209,7 +209,7 @@ TEST(CaseParser, OtherForms) {  // constant and uniform radius, box region, coun
 
 TEST(CaseParser, ReadmeExampleParses) {  // the user documentation's complete example stays valid
   const std::string readme = read_file(std::string(MLCG_SOURCE_DIR) + "/cases/README.md");
-  const size_t begin = readme.find("```toml\n");
+  const size_t begin = readme.find("```toml\n", readme.find("## Complete example"));
   ASSERT_NE(begin, std::string::npos);
   const size_t end = readme.find("```", begin + 8);
   ASSERT_NE(end, std::string::npos);
@@ -384,7 +384,7 @@ TEST(CaseParserErrors, InsertionBothCountAndMass) {
 }
 
 TEST(CaseParserErrors, InsertionNeitherCountNorMass) {
-  expect_error(Edit{"mass = 0.5\n", "", "[[insertion]]", true}, "insertion[0]", "neither count nor mass given");
+  expect_error(Edit{"mass = 0.5\n", "", "[[insertion]]", true}, "insertion[0]", "neither count, count_alpha1 nor mass given");
 }
 
 TEST(CaseParserErrors, InsertionCountIsAnInteger) {

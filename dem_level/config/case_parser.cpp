@@ -51,7 +51,7 @@ void read_materials(const Table& root, CaseSpec& spec, Names& names) {
     spec.materials.push_back(m);
   }
   if (spec.materials.empty())
-    fail(root.doc(), root.line("materials"), "materials", "no materials; give at least one [[materials]] entry");
+    root.fail("materials", "no materials; give at least one [[materials]] entry");
 }
 
 void read_contact(const Table& root, CaseSpec& spec) {
@@ -96,8 +96,7 @@ void read_interactions(const Table& root, CaseSpec& spec, const Names& names) {
     spec.interactions.push_back(in);
   }
   if (spec.interactions.empty())
-    fail(root.doc(), root.line("interactions"), "interactions",
-         "no interactions; give an [[interactions]] entry for every pair of materials that can meet");
+    root.fail("interactions", "no interactions; give an [[interactions]] entry for every pair of materials that can meet");
 }
 
 void read_levels(const Table& root, CaseSpec& spec, Names& names) {
@@ -148,10 +147,10 @@ void read_levels(const Table& root, CaseSpec& spec, Names& names) {
     l.loc = t.loc();
     spec.levels.push_back(l);
   }
-  if (tables.empty()) fail(root.doc(), root.line("levels"), "levels", "no levels; give one [[levels]] entry");
+  if (tables.empty()) root.fail("levels", "no levels; give one [[levels]] entry");
   // More than one level runs only coupled; read_coupling checks the rest.
   if (tables.size() > 1 && !root.has("coupling"))
-    fail(root.doc(), tables[1].line(), "levels",
+    fail(tables[1].loc(), "levels",
          std::to_string(tables.size()) +
              " [[levels]] entries given, but no [coupling] section; a multi-level case needs one: add [coupling] "
              "with one [[coupling.regions]] entry (coarse, fine, min, max) per finer level, or give exactly one "
@@ -327,13 +326,7 @@ std::string folder_of(const std::string& path) {
 
 CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_messages) {
   const Doc doc{path_for_messages, folder_of(path_for_messages)};
-  scan_text(doc, toml_text);
-  toml::table tbl;
-  try {
-    tbl = toml::parse(toml_text, std::string_view(path_for_messages));
-  } catch (const toml::parse_error& e) {
-    fail(doc, static_cast<int>(e.source().begin.line), "TOML syntax error", std::string(e.description()));
-  }
+  const toml::table tbl = read_case_tree(toml_text, doc).root;  // a variant laid over its base
   const Table root(doc, tbl, "");
   root.allow({"title", "seed", "gravity", "materials", "interactions", "contact", "levels", "domain", "walls",
               "insertion", "particles", "initial", "events", "probes", "grids", "output", "stability", "time",
@@ -385,18 +378,6 @@ void check_toml_text(std::string_view toml_text, const std::string& path_for_mes
   scan_text(Doc{path_for_messages, folder_of(path_for_messages)}, toml_text);
 }
 
-CaseSpec load_case(const std::string& path) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec))
-    throw CaseError(path + ": cannot read the case file (" +
-                    (fs::exists(path, ec) ? std::string("not a regular file") : std::string("no such file")) +
-                    "); give the path of a .toml case file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw CaseError(path + ": cannot read the case file (" + std::strerror(errno) + ")");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_case(text.str(), path);
-}
+CaseSpec load_case(const std::string& path) { return parse_case(case_file_text(path), path); }
 
 }  // namespace mlcg::config

@@ -146,7 +146,7 @@ CouplingRegionSpec read_region(const Table& r, const CaseSpec& spec, const Names
   g.radius_bins = static_cast<int>(bins);
   g.loc = r.loc();
   for (const char* k : {"min", "max", "cell_size", "coarse", "fine"})
-    if (r.has(k)) g.key_lines[k] = r.line(k);
+    if (r.has(k)) g.key_locs[k] = r.loc(k);
   return g;
 }
 
@@ -186,7 +186,7 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
 
   const auto tables = array_of_tables(*t, "regions");
   if (tables.empty())
-    fail(root.doc(), t->line("regions"), t->key("regions"),
+    fail(t->loc("regions"), t->key("regions"),
          "no regions; give at least one [[coupling.regions]] entry (the fine region of each finer level)");
   std::map<std::string, std::string> fine_of;  // fine level -> "coupling.regions[0], line 40"
   for (const Table& r : tables) {
@@ -242,7 +242,7 @@ void read_launcher(const Table& root, CaseSpec& spec) {
     s.at = w.required_number("at", "the simulated time [s] of the swap");
     w.non_negative("at", s.at, "s of simulated time");
     s.binary = w.required_string("binary", "the path of the new solver binary");
-    if (!s.binary.empty() && s.binary.front() != '/' && !spec.dir.empty()) s.binary = spec.dir + "/" + s.binary;
+    if (!s.binary.empty() && s.binary.front() != '/') s.binary = w.folder("binary") + "/" + s.binary;
     spec.swaps.push_back(std::move(s));
   }
   const auto t = root.table("launcher");

@@ -31,10 +31,22 @@ int line_of(const toml::node& n);
 
 // Throws CaseError "FILE:LINE: KEY: WHAT" (": KEY" left out when key is empty).
 [[noreturn]] void fail(const Doc& doc, int line, std::string_view key, const std::string& what);
+[[noreturn]] void fail(const SourceLoc& at, std::string_view key, const std::string& what);
+// Where a node was read: its own file (a variant's base, case_variant.cpp) or the case file.
+SourceLoc loc_of(const Doc& doc, const toml::node& n);
 
 // Refuses text the TOML reader cannot take safely (case_text_scan.cpp): a line
 // longer than 65,536 characters, a dotted key or table header of more than 64 parts.
 void scan_text(const Doc& doc, std::string_view text);
+
+// The case's TOML tree (case_variant.cpp): the text parsed and, when it names a `base`, laid over its chain
+// of bases. `variant` says whether it did.
+struct CaseTree {
+  toml::table root;
+  bool variant = false;
+};
+CaseTree read_case_tree(std::string_view text, const Doc& doc);
+std::string case_file_text(const std::string& path);  // a case file's bytes, or CaseError naming why not
 
 // ---- one table being read -------------------------------------------------
 class Table {
@@ -46,7 +58,10 @@ class Table {
   std::string key(std::string_view k) const;     // path.k
   int line() const;                                // line of the table itself
   int line(std::string_view k) const;             // line of k's value; the table's if k is absent
-  SourceLoc loc() const { return {doc_->file, line()}; }
+  SourceLoc loc() const;                           // where the table itself is written
+  SourceLoc loc(std::string_view k) const;        // where k's value is written; the table's if k is absent
+  // The folder a relative path at k resolves against: that of the file k is written in.
+  std::string folder(std::string_view k) const;
   bool has(std::string_view k) const { return node(k) != nullptr; }
   const toml::node* node(std::string_view k) const;
 

@@ -30,16 +30,16 @@ constexpr double kGB = 1e9;
 
 // What one key costs (bytes or files) and the value of that key that would cost at most a given amount.
 struct Cost {
-  int line = 0;
+  SourceLoc at;
   std::string key, what;
   double amount = 0.0;
   std::function<std::string(double)> fix;
 };
 
 // Where key k of table `name` is written; the top of the file when the table is absent (defaults).
-std::pair<int, std::string> where(const Table& root, const std::string& name, std::string_view k) {
+std::pair<SourceLoc, std::string> where(const Table& root, const std::string& name, std::string_view k) {
   const auto t = root.table(name);
-  return t ? std::pair(t->line(k), t->key(k)) : std::pair(1, name + "." + std::string(k));
+  return t ? std::pair(t->loc(k), t->key(k)) : std::pair(SourceLoc{root.doc().file, 1}, name + "." + std::string(k));
 }
 
 // The simulated end time when the case fixes it (a time, or an event at a time or with a latest time); else -1.
@@ -73,10 +73,22 @@ double particles_of(const CaseSpec& spec, const InsertionSpec& in, double alpha)
   return in.mass / mean_mass;
 }
 
+// The key an insertion's amount is written in, and that key's value that inserts at most `most` of the
+// `n` particles it asks for at alpha: "count <= 120", "count_alpha1 <= 960", "mass <= 0.5 kg".
+std::pair<std::string, std::function<std::string(double, double)>> amount_key(const Table& t, const InsertionSpec& in,
+                                                                               double alpha) {
+  if (t.has("count_alpha1"))
+    return {"count_alpha1", [=](double most, double) {
+              return fmt::format("count_alpha1 <= {:.0f}", std::floor(most * alpha * alpha * alpha));
+            }};
+  if (in.count > 0) return {"count", [](double most, double) { return fmt::format("count <= {:.0f}", most); }};
+  return {"mass", [m = in.mass](double most, double n) { return fmt::format("mass <= {:.3g} kg", m * most / n); }};
+}
+
 std::string gb(double bytes) { return fmt::format("{:.3g} GB", bytes / kGB); }
 
 // Refuses when the costs add up to more than `limit`, at the key of the largest one.
-void enforce(const Doc& doc, std::vector<Cost> costs, double limit, const std::string& limit_key,
+void enforce(std::vector<Cost> costs, double limit, const std::string& limit_key,
              const std::function<std::string(double)>& show) {
   double total = 0.0;
   for (const Cost& c : costs) total += c.amount;
@@ -88,7 +100,7 @@ void enforce(const Doc& doc, std::vector<Cost> costs, double limit, const std::s
   if (rest > 0.01 * total) what += " (" + show(total) + " with the rest of the case)";
   what += ", above [limits] " + limit_key + "; ";
   if (rest < limit) what += "give " + big.fix(limit - rest) + ", or ";
-  fail(doc, big.line, big.key, what + "raise [limits] " + limit_key.substr(0, limit_key.find(' ')));
+  fail(big.at, big.key, what + "raise [limits] " + limit_key.substr(0, limit_key.find(' ')));
 }
 
 }  // namespace
@@ -167,7 +179,7 @@ double steps_total(const CaseSpec& spec, double end, double interval) {
 std::vector<Cost> file_costs(const Table& root, const CaseSpec& spec, double end) {
   std::vector<Cost> costs;
   const double levels = static_cast<double>(spec.levels.size());
-  auto interval_cost = [&](std::pair<int, std::string> at, double interval, const std::string& what, double per) {
+  auto interval_cost = [&](std::pair<SourceLoc, std::string> at, double interval, const std::string& what, double per) {
     const std::string k = at.second.substr(at.second.rfind('.') + 1);
     costs.push_back({at.first, at.second, what + " every " + num(interval) + " s on each of " + num(levels) + " level(s)",
                      per * steps_total(spec, end, interval),
@@ -180,7 +192,7 @@ std::vector<Cost> file_costs(const Table& root, const CaseSpec& spec, double end
     interval_cost(where(root, "output", "checkpoint_interval"), o.checkpoint_interval, "a checkpoint", 1.0);
   const auto grids = array_of_tables(root, "grids");
   for (size_t g = 0; g < spec.grids.size(); ++g)
-    interval_cost({grids[g].line("output_interval"), grids[g].key("output_interval")}, spec.grids[g].output_interval,
+    interval_cost({grids[g].loc("output_interval"), grids[g].key("output_interval")}, spec.grids[g].output_interval,
                   "a frame of grid '" + spec.grids[g].name + "'", 1.0);
   if (spec.coupling && spec.coupling->checkpoint_every > 0.0) {
     const double every = std::max(spec.coupling->checkpoint_every, spec.coupling->interval);
@@ -206,16 +218,14 @@ void particle_costs(const Table& root, const CaseSpec& spec, std::vector<Cost>& 
     const double n = particles_of(spec, in, fill);
     total += n;
     r_min = r_min > 0.0 ? std::min(r_min, in.radius.smallest()) : in.radius.smallest();
-    const char* k = in.count > 0 ? "count" : "mass";
-    costs.push_back({tables[i].line(k), tables[i].key(k), fmt::format("{:.3g} particles of insertion '{}'", n, in.name),
-                     n * filling * kBytesPerParticle, [=](double allowed) {
-                       const double most = allowed / (filling * kBytesPerParticle);
-                       return in.count > 0 ? fmt::format("count <= {:.0f}", std::floor(most))
-                                           : fmt::format("mass <= {:.3g} kg", in.mass * most / n);
+    const auto [k, fix] = amount_key(tables[i], in, fill);
+    costs.push_back({tables[i].loc(k), tables[i].key(k), fmt::format("{:.3g} particles of insertion '{}'", n, in.name),
+                     n * filling * kBytesPerParticle, [=, fix = fix](double allowed) {
+                       return fix(std::floor(allowed / (filling * kBytesPerParticle)), n);
                      }});
   }
   if (!spec.particles.empty())
-    costs.push_back({root.line("particles"), "particles", std::to_string(spec.particles.size()) + " [[particles]]",
+    costs.push_back({root.loc("particles"), "particles", std::to_string(spec.particles.size()) + " [[particles]]",
                      static_cast<double>(spec.particles.size()) * filling * kBytesPerParticle,
                      [](double) { return std::string("fewer [[particles]] entries"); }});
   if (!spec.coupling || r_min <= 0.0) return;
@@ -228,7 +238,7 @@ void particle_costs(const Table& root, const CaseSpec& spec, std::vector<Cost>& 
     const double room = kPacking * e.x * e.y * e.z / sphere_volume(r_min * fine.alpha);
     const double scaled = (total + static_cast<double>(spec.particles.size())) * std::pow(fill / fine.alpha, 3.0);
     const double n = std::min(room, scaled);
-    costs.push_back({regions[r].line("max"), regions[r].key("max"),
+    costs.push_back({regions[r].loc("max"), regions[r].key("max"),
                      fmt::format("up to {:.3g} particles of level '{}' in this fine region", n, g.fine),
                      n * kBytesPerParticle, [](double) { return std::string("a smaller fine region"); }});
   }
@@ -244,7 +254,7 @@ void cell_costs(const Table& root, const CaseSpec& spec, std::vector<Cost>& cost
   auto cost = [&](const Table& t, const Vec3& lo, const Vec3& hi, double h, double bytes, const std::string& what) {
     const Vec3 e = hi - lo;
     const double n = cells(lo, hi, h);
-    costs.push_back({t.line("cell_size"), t.key("cell_size"), fmt::format("{} m makes {:.3g} cells of {}", num(h), n, what),
+    costs.push_back({t.loc("cell_size"), t.key("cell_size"), fmt::format("{} m makes {:.3g} cells of {}", num(h), n, what),
                      n * bytes, [=](double allowed) {
                        return fmt::format("cell_size >= {:.3g} m", std::cbrt(e.x * e.y * e.z * bytes / allowed));
                      }});
@@ -268,7 +278,7 @@ void series_costs(const Table& root, const CaseSpec& spec, double end, std::vect
   const auto probes = array_of_tables(root, "probes");
   for (size_t p = 0; p < spec.probes.size(); ++p) {
     const double rate = spec.probes[p].sample_rate;
-    costs.push_back({probes[p].line("sample_rate"), probes[p].key("sample_rate"),
+    costs.push_back({probes[p].loc("sample_rate"), probes[p].key("sample_rate"),
                      num(rate) + " Hz keeps a sample of probe '" + spec.probes[p].name + "' at most every step",
                      kBytesPerProbeSample * steps_total(spec, end, 1.0 / rate), [=](double allowed) {
                        return fmt::format("sample_rate <= {:.3g} Hz", allowed / (kBytesPerProbeSample * levels * end));
@@ -304,13 +314,12 @@ void check_batch_room(const Table& t, const InsertionSpec& in, const CaseSpec& s
   const double each = sphere_volume(1.0) * in.radius.mean_volume_factor() * alpha * alpha * alpha;
   const double most = std::floor(kSsiPacking * volume / each);
   if (n <= most) return;
-  const char* k = in.count > 0 ? "count" : "mass";
+  const auto [k, fix] = amount_key(t, in, alpha);
   t.fail(k, fmt::format("{:.3g} particles of {:.3g} m^3 on average (alpha {}) would fill {:.3g} % of the {:.3g} m^3 "
                         "the first batch fills (no rate or mass_rate: all in one batch); random placement fits at "
                         "most {:.0f} %, about {:.0f} particles; give a rate or mass_rate, a larger region, or {}",
                         n, each, num(alpha), 100.0 * n * each / volume, volume, 100.0 * kSsiPacking, most,
-                        in.count > 0 ? fmt::format("count <= {:.0f}", most)
-                                     : fmt::format("mass <= {:.3g} kg", in.mass * most / n)));
+                        fix(most, n)));
 }
 
 void check_limits(const Table& root, const CaseSpec& spec) {
@@ -318,7 +327,7 @@ void check_limits(const Table& root, const CaseSpec& spec) {
   const double end = known_end(spec);
   if (end > 0.0) {
     check_steps(root, spec, end);
-    enforce(root.doc(), file_costs(root, spec, end), static_cast<double>(l.max_output_files),
+    enforce(file_costs(root, spec, end), static_cast<double>(l.max_output_files),
             "max_output_files = " + std::to_string(l.max_output_files),
             [](double n) { return fmt::format("{:.3g} files over the run", n); });
   }
@@ -326,7 +335,7 @@ void check_limits(const Table& root, const CaseSpec& spec) {
   particle_costs(root, spec, memory);
   cell_costs(root, spec, memory);
   if (end > 0.0) series_costs(root, spec, end, memory);
-  enforce(root.doc(), memory, l.max_memory_gb * kGB, "max_memory_gb = " + num(l.max_memory_gb),
+  enforce(memory, l.max_memory_gb * kGB, "max_memory_gb = " + num(l.max_memory_gb),
           [](double bytes) { return "about " + gb(bytes) + " of memory"; });
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 #include <sstream>
 
@@ -89,9 +90,18 @@ const char* type_name(const toml::node& n) {
 int line_of(const toml::node& n) { return static_cast<int>(n.source().begin.line); }
 
 void fail(const Doc& doc, int line, std::string_view key, const std::string& what) {
-  std::string msg = doc.file + ":" + std::to_string(line) + ": ";
+  fail(SourceLoc{doc.file, line}, key, what);
+}
+
+void fail(const SourceLoc& at, std::string_view key, const std::string& what) {
+  std::string msg = at.str() + ": ";
   if (!key.empty()) msg += std::string(key) + ": ";
   throw CaseError(msg + what);
+}
+
+SourceLoc loc_of(const Doc& doc, const toml::node& n) {
+  const auto& path = n.source().path;
+  return {path && !path->empty() ? *path : doc.file, std::max(1, line_of(n))};
 }
 
 // ---- one value ------------------------------------------------------------
@@ -103,15 +113,15 @@ double as_number(const Doc& doc, const toml::node& n, const std::string& key, bo
   double v = 0.0;
   if (auto i = n.as_integer()) v = static_cast<double>(i->get());
   else if (auto f = n.as_floating_point()) v = f->get();
-  else fail(doc, line_of(n), key, std::string("expected a number, found ") + type_name(n));
-  if (std::isnan(v)) fail(doc, line_of(n), key, "nan is not allowed; give a finite number");
-  if (std::isinf(v) && !allow_inf) fail(doc, line_of(n), key, num(v) + " is not allowed; give a finite number");
+  else fail(loc_of(doc, n), key, std::string("expected a number, found ") + type_name(n));
+  if (std::isnan(v)) fail(loc_of(doc, n), key, "nan is not allowed; give a finite number");
+  if (std::isinf(v) && !allow_inf) fail(loc_of(doc, n), key, num(v) + " is not allowed; give a finite number");
   return v;
 }
 
 std::string as_string(const Doc& doc, const toml::node& n, const std::string& key) {
   if (auto s = n.as_string()) return s->get();
-  fail(doc, line_of(n), key, std::string("expected a string, found ") + type_name(n));
+  fail(loc_of(doc, n), key, std::string("expected a string, found ") + type_name(n));
 }
 
 const toml::array& as_array(const Doc& doc, const toml::node& n, const std::string& key, size_t exact_size,
@@ -120,11 +130,11 @@ const toml::array& as_array(const Doc& doc, const toml::node& n, const std::stri
       exact_size ? "an array of " + std::to_string(exact_size) + " " + std::string(of_what)
                  : "an array of " + std::string(of_what);
   const toml::array* a = n.as_array();
-  if (!a) fail(doc, line_of(n), key, "expected " + expected + ", found " + type_name(n));
+  if (!a) fail(loc_of(doc, n), key, "expected " + expected + ", found " + type_name(n));
   if (exact_size && a->size() != exact_size)
-    fail(doc, line_of(n), key,
+    fail(loc_of(doc, n), key,
          "expected " + expected + ", found " + std::to_string(a->size()) + " element" + (a->size() == 1 ? "" : "s"));
-  if (!exact_size && a->empty()) fail(doc, line_of(n), key, "expected " + expected + ", found an empty array");
+  if (!exact_size && a->empty()) fail(loc_of(doc, n), key, "expected " + expected + ", found an empty array");
   return *a;
 }
 
@@ -141,6 +151,19 @@ std::string Table::key(std::string_view k) const {
 
 int Table::line() const { return std::max(1, line_of(*t_)); }
 
+SourceLoc Table::loc() const { return loc_of(*doc_, *t_); }
+
+SourceLoc Table::loc(std::string_view k) const {
+  const toml::node* n = node(k);
+  return n ? loc_of(*doc_, *n) : loc();
+}
+
+std::string Table::folder(std::string_view k) const {
+  const SourceLoc at = loc(k);
+  if (at.file == doc_->file) return doc_->dir;
+  return std::filesystem::absolute(std::filesystem::path(at.file).parent_path()).lexically_normal().string();
+}
+
 int Table::line(std::string_view k) const {
   const toml::node* n = node(k);
   return n ? line_of(*n) : line();
@@ -148,12 +171,12 @@ int Table::line(std::string_view k) const {
 
 const toml::node* Table::node(std::string_view k) const { return t_->get(k); }
 
-void Table::fail(std::string_view k, const std::string& what) const { detail::fail(*doc_, line(k), key(k), what); }
+void Table::fail(std::string_view k, const std::string& what) const { detail::fail(loc(k), key(k), what); }
 
-void Table::fail_table(const std::string& what) const { detail::fail(*doc_, line(), path_, what); }
+void Table::fail_table(const std::string& what) const { detail::fail(loc(), path_, what); }
 
 void Table::fail_missing(std::string_view k, const std::string& expected) const {
-  detail::fail(*doc_, line(), key(k), "missing required key; give " + expected);
+  detail::fail(loc(), key(k), "missing required key; give " + expected);
 }
 
 void Table::allow(const std::vector<std::string>& allowed, std::string_view kind) const {
@@ -166,7 +189,9 @@ void Table::allow(const std::vector<std::string>& allowed, std::string_view kind
   }
   if (!first) return;
   const std::string where = kind.empty() ? std::string() : " for " + std::string(kind);
-  detail::fail(*doc_, static_cast<int>(first->source().begin.line), key(first->str()),
+  const auto& src = first->source();
+  detail::fail(SourceLoc{src.path && !src.path->empty() ? *src.path : doc_->file, static_cast<int>(src.begin.line)},
+               key(first->str()),
                "unknown key" + did_you_mean(first->str(), allowed) + "; allowed keys" + where + ": " + join(allowed));
 }
 
@@ -276,7 +301,7 @@ std::vector<Table> array_of_tables(const Table& root, std::string_view k) {
     const toml::node& e = *a->get(i);
     const std::string path = root.key(k) + "[" + std::to_string(i) + "]";
     const toml::table* t = e.as_table();
-    if (!t) fail(root.doc(), line_of(e), path, std::string("expected a table, found ") + type_name(e));
+    if (!t) fail(loc_of(root.doc(), e), path, std::string("expected a table, found ") + type_name(e));
     out.emplace_back(root.doc(), *t, path);
   }
   return out;

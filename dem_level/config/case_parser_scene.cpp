@@ -124,12 +124,12 @@ void read_walls(const Table& root, CaseSpec& spec, Names& names) {
         namespace fs = std::filesystem;
         const std::string file = t.required_string("file", "the STL file, relative to the case file's folder");
         fs::path p(file);
-        if (p.is_relative()) p = fs::path(spec.dir) / p;
+        if (p.is_relative()) p = fs::path(t.folder("file")) / p;
         p = p.lexically_normal();
         std::error_code ec;
         if (!fs::is_regular_file(p, ec))
           t.fail("file", "file not found: " + p.string() + "; give an STL file (a relative path resolves against "
-                                                          "the case file's folder " + spec.dir + ")");
+                                                          "the case file's folder " + t.folder("file") + ")");
         w.file = p.string();
         w.scale = t.number("scale", w.scale);
         t.positive("scale", w.scale, "");
@@ -217,6 +217,52 @@ RadiusSpec read_radius(const Table& ins) {
   return r;
 }
 
+// Given more than one of `keys`: refused at the second, naming them all.
+void at_most_one(const Table& t, const std::vector<std::string>& keys, bool required, const std::string& what) {
+  std::vector<std::string> given;
+  for (const auto& k : keys)
+    if (t.has(k)) given.push_back(k);
+  if (given.size() > 1) t.fail(given[1], "both " + given[0] + " and " + given[1] + " given; give exactly one of " + what);
+  if (required && given.empty())
+    t.fail_table("neither " + join({keys.begin(), keys.end() - 1}) + " nor " + keys.back() + " given; give exactly one of " +
+                 what);
+}
+
+// How much an insertion inserts, and how fast. count and rate are the level's own; count_alpha1 and
+// rate_alpha1 are at alpha = 1 and scaled here by 1 / alpha^3 (alpha of the coarsest level, the one an
+// insertion fills), so one [[insertion]] keeps the mass at every alpha; mass and mass_rate are in kg.
+void read_amount(const Table& t, double alpha, InsertionSpec& s) {
+  const double scale = 1.0 / (alpha * alpha * alpha);
+  at_most_one(t, {"count", "count_alpha1", "mass"}, true,
+              "them: count (particles), count_alpha1 (particles at alpha = 1) or mass (kg)");
+  if (const auto count = t.integer("count")) {
+    t.check("count", *count >= 1, std::to_string(*count) + " is not >= 1; give the number of particles to insert");
+    s.count = *count;
+  } else if (const auto count1 = t.integer("count_alpha1")) {
+    t.check("count_alpha1", *count1 >= 1 && *count1 <= (int64_t{1} << 53),
+            std::to_string(*count1) + " is outside [1, 2^53]; give the number of particles at alpha = 1");
+    s.count = std::llround(static_cast<double>(*count1) * scale);
+    t.check("count_alpha1", s.count >= 1,
+            fmt::format("{} particles at alpha = 1 are {:.3g} at alpha = {}, less than one; give count_alpha1 >= {:.0f}",
+                        *count1, static_cast<double>(*count1) * scale, num(alpha), std::ceil(0.5 / scale)));
+  } else {
+    s.mass = *t.number("mass");
+    t.positive("mass", s.mass, "kg");
+  }
+  at_most_one(t, {"rate", "rate_alpha1", "mass_rate"}, false,
+              "them, or none: rate (particles/s), rate_alpha1 (particles/s at alpha = 1) or mass_rate (kg/s)");
+  if (const auto rate = t.number("rate")) {
+    t.positive("rate", *rate, "particles/s");
+    s.rate = *rate;
+  } else if (const auto rate1 = t.number("rate_alpha1")) {
+    t.positive("rate_alpha1", *rate1, "particles/s at alpha = 1");
+    s.rate = *rate1 * scale;
+  } else if (const auto mass_rate = t.number("mass_rate")) {
+    t.positive("mass_rate", *mass_rate, "kg/s");
+    s.mass_rate = *mass_rate;
+  }
+}
+
 }  // namespace
 
 void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
@@ -224,8 +270,8 @@ void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
   UniqueNames insertions("insertion");
   for (size_t i = 0; i < tables.size(); ++i) {
     const Table& t = tables[i];
-    t.allow({"name", "material", "region", "radius", "count", "mass", "rate", "mass_rate", "start", "interval",
-             "velocity", "follow_gap", "follow_height", "max_attempts"});
+    t.allow({"name", "material", "region", "radius", "count", "count_alpha1", "mass", "rate", "rate_alpha1",
+             "mass_rate", "start", "interval", "velocity", "follow_gap", "follow_height", "max_attempts"});
     InsertionSpec s;
     s.name = t.has("name") ? t.required_string("name", "the insertion's name") : "insertion" + std::to_string(i);
     insertions.add(t, s.name);
@@ -246,29 +292,8 @@ void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
                           num(width), "xyz"[a], num(diameter), num(s.radius.largest()), num(alpha), num(diameter)));
     }
 
-    const auto count = t.integer("count");
-    const auto mass = t.number("mass");
-    if (count && mass) t.fail("mass", "both count and mass given; give exactly one of them");
-    if (!count && !mass)
-      t.fail_table("neither count nor mass given; give exactly one: count (particles) or mass (kg)");
-    if (count) {
-      t.check("count", *count >= 1, std::to_string(*count) + " is not >= 1; give the number of particles to insert");
-      s.count = *count;
-    } else {
-      t.positive("mass", *mass, "kg");
-      s.mass = *mass;
-    }
-    const auto rate = t.number("rate");
-    const auto mass_rate = t.number("mass_rate");
-    if (rate && mass_rate) t.fail("mass_rate", "both rate and mass_rate given; give at most one of them");
-    if (rate) {
-      t.positive("rate", *rate, "particles/s");
-      s.rate = *rate;
-    }
-    if (mass_rate) {
-      t.positive("mass_rate", *mass_rate, "kg/s");
-      s.mass_rate = *mass_rate;
-    }
+    read_amount(t, alpha, s);
+    const bool rate = s.rate > 0.0 || s.mass_rate > 0.0;
     s.start = t.number("start", s.start);
     t.non_negative("start", s.start, "s");
     s.interval = t.number("interval", s.interval);
@@ -283,7 +308,7 @@ void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
       t.check("follow_height", s.follow_gap >= 0.0, "follow_height needs follow_gap (the slab follows the heap)");
       s.follow_height = *h;
     }
-    if (!rate && !mass_rate) check_batch_room(t, s, spec, alpha);
+    if (!rate) check_batch_room(t, s, spec, alpha);
     const int64_t attempts = t.integer("max_attempts").value_or(s.max_attempts);
     t.check("max_attempts", attempts >= 1 && attempts <= 1'000'000'000,
             std::to_string(attempts) + " is not a valid number of attempts; give an integer >= 1");
@@ -434,7 +459,7 @@ void read_initial(const Table& root, CaseSpec& spec, Names& names) {
   t->allow({"file", "material"}, "[initial]");
   InitialSpec in;
   const std::string file = t->required_string("file", "an HDF5 particle snapshot (e.g. a run's particles/particles_000010.h5)");
-  const std::filesystem::path path = std::filesystem::path(spec.dir) / file;
+  const std::filesystem::path path = std::filesystem::path(t->folder("file")) / file;
   t->check("file", std::filesystem::is_regular_file(path), "'" + path.string() + "' does not exist or is not a file");
   in.file = path.string();
   in.material = t->required_string("material", "the name of a [[materials]] entry");

@@ -1,6 +1,7 @@
 #pragma once
 // The parsed case: plain values only. The physics is configured from these
-// structs and never sees a TOML node. Every field is documented, with its TOML
+// structs and never sees a TOML node. Specs compare equal when every value
+// and every SourceLoc is equal (tests compare a variant with a full file). Every field is documented, with its TOML
 // key, in cases/README.md. Lengths in m, times in s (simulated), angles none.
 #include <cstdint>
 #include <limits>
@@ -18,6 +19,7 @@ struct SourceLoc {
   std::string file;
   int line = 0;
   std::string str() const { return file + ":" + std::to_string(line); }
+  bool operator==(const SourceLoc&) const = default;
 };
 
 struct MaterialSpec {              // [[materials]]
@@ -26,6 +28,7 @@ struct MaterialSpec {              // [[materials]]
   double poisson_ratio = 0.0;      // poisson_ratio   in [0, 0.5)
   double density = 0.0;            // density         > 0
   SourceLoc loc;
+  bool operator==(const MaterialSpec&) const = default;
 };
 
 struct InteractionSpec {           // [[interactions]]
@@ -34,6 +37,7 @@ struct InteractionSpec {           // [[interactions]]
   double friction = 0.0;           // friction        >= 0
   double rolling_friction = 0.0;   // rolling_friction >= 0 (needs [contact] rolling = "cdt")
   SourceLoc loc;
+  bool operator==(const InteractionSpec&) const = default;
 };
 
 struct ContactSpec {               // [contact]
@@ -41,6 +45,7 @@ struct ContactSpec {               // [contact]
   std::string tangential = "history";  // tangential: "history" | "none"
   std::string rolling = "none";    // rolling: "none" | "cdt"
   bool clamp_normal = false;       // clamp_normal: clamp the normal force at zero (no attraction)
+  bool operator==(const ContactSpec&) const = default;
 };
 
 struct LevelSpec {                 // [[levels]]
@@ -55,10 +60,12 @@ struct LevelSpec {                 // [[levels]]
   std::vector<int> processors;     // processors = [px, py, pz]: MPI process grid (product = ranks); empty = automatic
   bool balance = true;             // balance: shift the rank boundaries to even out particle counts
   SourceLoc loc;
+  bool operator==(const LevelSpec&) const = default;
 };
 
 struct DomainSpec {                // [domain]
   Vec3 min, max;                   // min, max: particles leaving this box are removed and counted
+  bool operator==(const DomainSpec&) const = default;
 };
 
 enum class WallType { Plane, Cylinder, Cone, Disk, Mesh };
@@ -83,6 +90,7 @@ struct WallSpec {                  // [[walls]]
   double scale = 1.0;              // scale > 0 applied to the file's coordinates, then
   Vec3 offset;                     // offset added
   SourceLoc loc;
+  bool operator==(const WallSpec&) const = default;
 };
 
 enum class RadiusKind { Constant, Uniform, Discrete };
@@ -95,6 +103,7 @@ struct RadiusSpec {                // radius = 1.4e-3  or  radius = { uniform = 
   double largest() const;
   double smallest() const;
   double mean_volume_factor() const;  // E[r^3]
+  bool operator==(const RadiusSpec&) const = default;
 };
 
 enum class RegionType { Box, Cylinder };
@@ -103,6 +112,7 @@ struct RegionSpec {                // region = { type = "box", min = [...], max 
   RegionType type = RegionType::Box;  //   or { type = "cylinder", center = [x, y], radius, zmin, zmax } (axis = z)
   Vec3 min, max;                   // box, and the bounding box of a cylinder region after parsing
   double cx = 0.0, cy = 0.0, radius = 0.0;  // cylinder
+  bool operator==(const RegionSpec&) const = default;
 };
 
 struct InsertionSpec {             // [[insertion]]
@@ -110,9 +120,10 @@ struct InsertionSpec {             // [[insertion]]
   std::string material;            // material
   RegionSpec region;               // region (inside the domain)
   RadiusSpec radius;               // radius at alpha = 1
-  int64_t count = -1;              // count: particles of this level to insert, or
-  double mass = -1.0;              // mass [kg] in total; exactly one of count / mass
-  double rate = -1.0;              // rate [particles/s], or
+  int64_t count = -1;              // count: particles of this level to insert (or count_alpha1 / alpha^3 of the
+                                   //   coarsest level, rounded), or
+  double mass = -1.0;              // mass [kg] in total; exactly one of count / count_alpha1 / mass
+  double rate = -1.0;              // rate [particles/s] (or rate_alpha1 / alpha^3), or
   double mass_rate = -1.0;         // mass_rate [kg/s]; neither = everything in the first batch
   double start = 0.0;              // start >= 0
   double interval = 0.0;           // interval: batch period [s]; 0 = automatic
@@ -123,6 +134,7 @@ struct InsertionSpec {             // [[insertion]]
                                    //   0 = 10 largest radii
   int max_attempts = 200;          // max_attempts: SSI candidates per particle before it counts as unplaced
   SourceLoc loc;
+  bool operator==(const InsertionSpec&) const = default;
 };
 
 struct ParticleSpec {              // [[particles]] one particle placed explicitly (validation scenes)
@@ -132,6 +144,7 @@ struct ParticleSpec {              // [[particles]] one particle placed explicit
   Vec3 velocity;                   // velocity [m/s]
   Vec3 omega;                      // omega [rad/s]
   SourceLoc loc;
+  bool operator==(const ParticleSpec&) const = default;
 };
 
 struct EventSpec {                 // [[events]]
@@ -143,6 +156,7 @@ struct EventSpec {                 // [[events]]
   double latest = std::numeric_limits<double>::infinity();  // latest: fire then at the latest (warns)
   std::vector<std::string> remove_walls;  // remove_walls = ["lid"]
   SourceLoc loc;
+  bool operator==(const EventSpec&) const = default;
 };
 
 struct TimeSpec {                  // [time]
@@ -150,6 +164,7 @@ struct TimeSpec {                  // [time]
   std::string end_event;           // end = { event = "open", plus = 0.6 }
   double end_plus = 0.0;
   double progress_interval = 2.0;  // progress_interval [wall s] between progress lines
+  bool operator==(const TimeSpec&) const = default;
 };
 
 struct ProbeSpec {                 // [[probes]]  mass-flow probe: disk in a plane
@@ -162,6 +177,7 @@ struct ProbeSpec {                 // [[probes]]  mass-flow probe: disk in a pla
   double window_end = std::numeric_limits<double>::infinity();
   std::string window_event;        // window_relative_to = "open": the window counts from that event
   SourceLoc loc;
+  bool operator==(const ProbeSpec&) const = default;
 };
 
 struct GridSpec {                  // [[grids]] cell statistics
@@ -171,6 +187,7 @@ struct GridSpec {                  // [[grids]] cell statistics
   double sample_interval = 0.0;    // sample_interval [s]: 0 = every output_interval
   double output_interval = 0.0;    // output_interval [s] > 0: averages written this often
   SourceLoc loc;
+  bool operator==(const GridSpec&) const = default;
 };
 
 struct OutputSpec {                // [output]
@@ -178,6 +195,7 @@ struct OutputSpec {                // [output]
   double checkpoint_interval = 0.0;// checkpoint_interval [s]; 0 = only at the end
   double stats_interval = 0.01;    // stats_interval [s]: rows of series.csv
   double energy_interval = 0.0;    // energy_interval [s]: rows of energy.csv (the energy account); 0 = off
+  bool operator==(const OutputSpec&) const = default;
 };
 
 struct StabilitySpec {             // [stability]
@@ -186,12 +204,14 @@ struct StabilitySpec {             // [stability]
   double max_overlap_fraction = 0.3;    // max_overlap_fraction: stop if an overlap exceeds this share of the smaller radius
   double max_impact_speed = -1.0;  // max_impact_speed [m/s]; < 0 = estimated from insertion speed and free fall
   std::string dt_override_reason;  // dt_override_reason: set to accept a dt above the guard, saying why
+  bool operator==(const StabilitySpec&) const = default;
 };
 
 struct InitialSpec {               // [initial] start from particles saved in a snapshot file
   std::string file;                // file: an HDF5 particle snapshot (run/particles/*.h5), relative to the case
   std::string material;            // material of those particles
   SourceLoc loc;
+  bool operator==(const InitialSpec&) const = default;
 };
 
 // Multi-level coupling (paper section 2.3; DESIGN.md section 3). Present only in
@@ -218,11 +238,12 @@ struct CouplingRegionSpec {        // [[coupling.regions]] one fine region insid
                                    // velocity_only_below [m]: cells below this height use pure velocity coupling
   int radius_bins = 8;             // radius_bins >= 1: size-histogram bins of the crossing coarse particles
   SourceLoc loc;
-  std::map<std::string, int> key_lines;  // line of each key written, so checks made after parsing can name it
+  std::map<std::string, SourceLoc> key_locs;  // where each key is written, so checks made after parsing can name it
   SourceLoc loc_of(const std::string& key) const {
-    const auto it = key_lines.find(key);
-    return {loc.file, it == key_lines.end() ? loc.line : it->second};
+    const auto it = key_locs.find(key);
+    return it == key_locs.end() ? loc : it->second;
   }
+  bool operator==(const CouplingRegionSpec&) const = default;
 };
 
 struct CouplingSpec {              // [coupling]
@@ -235,6 +256,7 @@ struct CouplingSpec {              // [coupling]
                                    //   of the hierarchy; 0 = automatic (0.02 s)
   std::vector<CouplingRegionSpec> regions;
   SourceLoc loc;
+  bool operator==(const CouplingSpec&) const = default;
 };
 
 struct OrificeSpec {               // [orifice]: the scene's outlet, for the coupling-region rules and
@@ -245,6 +267,7 @@ struct OrificeSpec {               // [orifice]: the scene's outlet, for the cou
   double length = 0.0;
   SourceLoc loc;
   double size() const { return diameter > 0.0 ? diameter : width; }  // the constraining opening [m]
+  bool operator==(const OrificeSpec&) const = default;
 };
 
 struct SwapSpec {                  // [[swap]]: replace a level's binary during a multi-level run
@@ -252,12 +275,14 @@ struct SwapSpec {                  // [[swap]]: replace a level's binary during 
   double at = 0.0;                 // at [s] >= 0: simulated time; the swap happens at the next consistent checkpoint
   std::string binary;              // binary: path of the new solver (relative to the case's folder)
   SourceLoc loc;
+  bool operator==(const SwapSpec&) const = default;
 };
 
 struct LauncherSpec {              // [launcher]: how `mlcg run` supervises a hierarchy
   int restart_on_failure = 0;      // restart_on_failure >= 0: restarts from the last consistent checkpoint
                                    //   after a process of the hierarchy died; 0 = stop every process
   SourceLoc loc;
+  bool operator==(const LauncherSpec&) const = default;
 };
 
 struct LimitsSpec {               // [limits]: what a case may ask of the machine, estimated before step 1
@@ -265,6 +290,7 @@ struct LimitsSpec {               // [limits]: what a case may ask of the machin
   int64_t max_output_files = 20'000;     // max_output_files >= 1: snapshots, grid frames and checkpoints written
   double max_memory_gb = 16.0;           // max_memory_gb > 0: particles, cells, samples and series rows held
   SourceLoc loc;
+  bool operator==(const LimitsSpec&) const = default;
 };
 
 struct CaseSpec {
@@ -293,6 +319,7 @@ struct CaseSpec {
   LauncherSpec launcher;                 // [launcher]: only in multi-level cases
   std::vector<SwapSpec> swaps;           // [[swap]]: only in multi-level cases
   LimitsSpec limits;                     // [limits]
+  bool operator==(const CaseSpec&) const = default;
 };
 
 }  // namespace mlcg::config

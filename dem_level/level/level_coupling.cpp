@@ -15,6 +15,7 @@
 #include <spdlog/spdlog.h>
 
 #include "bus/case_hash.hpp"
+#include "config/case_parser.hpp"
 #include "core/spheres.hpp"
 #include "core/time_steps.hpp"
 #include "coupling/client.hpp"
@@ -107,7 +108,7 @@ void Level::connect_coupler() {
   reg.set_alpha(alpha_);
   reg.set_dt(dt_);
   reg.set_ranks(static_cast<uint32_t>(comm_.size()));
-  reg.set_case_hash(bus::case_hash(cs_.path));
+  reg.set_case_hash(bus::case_hash_of_bytes(config::resolved_case_text(cs_.path)));
   std::error_code ec;
   const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
   reg.set_binary(ec ? std::string("dem_level") : exe.string());

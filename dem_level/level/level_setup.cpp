@@ -11,6 +11,8 @@
 
 #include "core/spheres.hpp"
 #include "forces/integrator.hpp"
+#include "config/case_parser.hpp"
+#include "io/atomic_file.hpp"
 #include "io/grid_series.hpp"
 #include "io/h5.hpp"
 #include "io/snapshot_series.hpp"
@@ -176,8 +178,7 @@ void Level::setup() {
   resolve_end_time();
 
   if (!opt_.out_dir.empty() && comm_.rank() == 0) {
-    std::filesystem::copy_file(cs_.path, opt_.out_dir / "case.toml",
-                               std::filesystem::copy_options::overwrite_existing);
+    io::write_file_atomic(opt_.out_dir / "case.toml", config::resolved_case_text(cs_.path));  // a variant resolved
     std::filesystem::create_directories(opt_.out_dir / "probes");
   }
   if (!opt_.restart.empty()) load_checkpoint(opt_.restart);

@@ -1,0 +1,262 @@
+// Variants (issue 16): a case written as `base = "other.toml"` plus what differs.
+// The shipped variant files must describe exactly the scene their former full copies
+// did (kept in tests/data/legacy_cases, which also shows old full files still load);
+// a key is named at the file and line it is written in, base or variant; chains,
+// cycles and bad bases; count_alpha1 scaled by the coarsest alpha; the resolved text
+// a run folder keeps loads back to the same case and changes when its base changes.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "config/case_parser.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace mlcg::config;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void put(const fs::path& p, const std::string& text) {
+  fs::create_directories(p.parent_path());
+  std::ofstream(p) << text;
+}
+
+// A fresh folder under the test's temporary folder, removed at the end.
+struct Folder {
+  fs::path dir;
+  explicit Folder(const std::string& name)
+      : dir(fs::temp_directory_path() / ("mlcg_variants_" + name + "_" + std::to_string(::getpid()))) {
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~Folder() { fs::remove_all(dir); }
+};
+
+// The case with everything that says where it was read from cleared: what is left is the scene.
+CaseSpec scene_of(CaseSpec c) {
+  c.path.clear();
+  c.dir.clear();
+  auto clear = [](auto& v) {
+    for (auto& x : v) x.loc = {};
+  };
+  clear(c.materials), clear(c.interactions), clear(c.levels), clear(c.walls), clear(c.insertions);
+  clear(c.particles), clear(c.events), clear(c.probes), clear(c.grids), clear(c.swaps);
+  if (c.initial) c.initial->loc = {};
+  if (c.orifice) c.orifice->loc = {};
+  if (c.coupling) {
+    c.coupling->loc = {};
+    for (auto& r : c.coupling->regions) r.loc = {}, r.key_locs.clear();
+  }
+  c.launcher.loc = {};
+  c.limits.loc = {};
+  return c;
+}
+
+// What differs between two scenes, table by table, so a failure says where to look.
+std::string differences(const CaseSpec& a, const CaseSpec& b) {
+  std::string d;
+  auto note = [&d](const char* what, bool same) {
+    if (!same) d += std::string(" ") + what;
+  };
+  note("title", a.title == b.title), note("seed", a.seed == b.seed), note("gravity", a.gravity == b.gravity);
+  note("materials", a.materials == b.materials), note("interactions", a.interactions == b.interactions);
+  note("contact", a.contact == b.contact), note("levels", a.levels == b.levels), note("domain", a.domain == b.domain);
+  note("walls", a.walls == b.walls), note("insertion", a.insertions == b.insertions);
+  note("particles", a.particles == b.particles), note("initial", a.initial == b.initial);
+  note("events", a.events == b.events), note("probes", a.probes == b.probes), note("grids", a.grids == b.grids);
+  note("output", a.output == b.output), note("stability", a.stability == b.stability), note("time", a.time == b.time);
+  note("orifice", a.orifice == b.orifice), note("coupling", a.coupling == b.coupling);
+  note("launcher", a.launcher == b.launcher), note("swap", a.swaps == b.swaps), note("limits", a.limits == b.limits);
+  return d;
+}
+
+const std::vector<std::string> kShipped = {
+    "silo_small/reference.toml", "silo_small/cg2.toml",      "silo_small/mlcg.toml",
+    "silo_small/mlcg_no_pi.toml", "silo_small/mlcg_tall.toml", "quickstart/case.toml",
+    "quickstart/cg2.toml",        "quickstart/mlcg.toml",      "quickstart/mlcg3.toml"};
+
+const std::string kCases = std::string(MLCG_SOURCE_DIR) + "/cases/";
+const std::string kLegacy = std::string(MLCG_TEST_DATA) + "/legacy_cases/";
+
+TEST(Variants, ShippedVariantsAreTheirFormerFullFiles) {
+  int variants = 0;
+  for (const std::string& name : kShipped) {
+    const CaseSpec now = load_case(kCases + name);
+    const CaseSpec before = load_case(kLegacy + name);
+    EXPECT_EQ(scene_of(now), scene_of(before)) << name << " differs in:" << differences(scene_of(now), scene_of(before));
+    variants += slurp(kCases + name).find("\nbase = ") != std::string::npos;
+  }
+  EXPECT_GE(variants, 7) << "the shipped folders should hold one scene each and variants of it";
+}
+
+TEST(Variants, ResolvedTextLoadsBackToTheSameScene) {
+  Folder f("resolved");
+  for (const std::string& name : kShipped) {
+    const std::string text = resolved_case_text(kCases + name);
+    const fs::path copy = f.dir / fs::path(name).filename();
+    put(copy, text);
+    EXPECT_EQ(scene_of(load_case(copy.string())), scene_of(load_case(kCases + name))) << name;
+    EXPECT_EQ(text.find("\nbase"), std::string::npos) << name << ": the resolved text still names a base";
+  }
+  // A plain file is kept byte for byte, comments and all.
+  EXPECT_EQ(resolved_case_text(kCases + "quickstart/case.toml"), slurp(kCases + "quickstart/case.toml"));
+}
+
+TEST(Variants, ResolvedTextChangesWhenTheBaseChanges) {
+  Folder f("hash");
+  put(f.dir / "scene.toml", slurp(kCases + "quickstart/case.toml"));
+  put(f.dir / "v.toml", "base = \"scene.toml\"\n[time]\nend = 0.05\n");
+  const std::string before = resolved_case_text((f.dir / "v.toml").string());
+  std::string scene = slurp(f.dir / "scene.toml");
+  const size_t at = scene.find("seed = ");
+  ASSERT_NE(at, std::string::npos);
+  scene.insert(at, "seed = 7\n#");
+  put(f.dir / "scene.toml", scene);
+  const std::string after = resolved_case_text((f.dir / "v.toml").string());
+  EXPECT_NE(before, after);
+  EXPECT_EQ(load_case((f.dir / "v.toml").string()).seed, 7u);
+}
+
+TEST(Variants, SectionsMergeKeyByKeyArraysOfTablesReplaceWhole) {
+  Folder f("merge");
+  put(f.dir / "scene.toml", slurp(kCases + "quickstart/case.toml"));
+  put(f.dir / "v.toml",
+      "base = \"scene.toml\"\n"
+      "[time]\nend = 0.05\n"
+      "[[levels]]\nname = \"coarse\"\nalpha = 2.0\ndt_alpha1 = 1.2e-5\n");
+  const CaseSpec base = load_case((f.dir / "scene.toml").string());
+  const CaseSpec v = load_case((f.dir / "v.toml").string());
+  EXPECT_DOUBLE_EQ(v.time.end, 0.05);
+  EXPECT_EQ(v.time.progress_interval, base.time.progress_interval);
+  EXPECT_EQ(v.materials, base.materials);
+  ASSERT_EQ(v.levels.size(), 1u);
+  EXPECT_EQ(v.levels[0].name, "coarse");
+  EXPECT_DOUBLE_EQ(v.levels[0].alpha, 2.0);
+  EXPECT_EQ(v.walls, base.walls);
+  EXPECT_EQ(v.levels[0].loc.file, (f.dir / "v.toml").string());
+  EXPECT_EQ(v.levels[0].loc.line, 4);
+  EXPECT_EQ(v.walls.at(0).loc.file, (f.dir / "scene.toml").lexically_normal().string());
+}
+
+TEST(Variants, ABadKeyInTheBaseIsNamedAtTheBasesLine) {
+  Folder f("badbase");
+  std::string scene = slurp(kCases + "quickstart/case.toml");
+  const size_t at = scene.find("[domain]");
+  ASSERT_NE(at, std::string::npos);
+  scene.insert(at, "[domian]\nmin = 1\n\n");
+  const int line = 1 + static_cast<int>(std::count(scene.begin(), scene.begin() + static_cast<long>(at), '\n'));
+  put(f.dir / "scene" / "scene.toml", scene);
+  put(f.dir / "study" / "v.toml", "base = \"../scene/scene.toml\"\n[time]\nend = 0.05\n");
+  try {
+    load_case((f.dir / "study" / "v.toml").string());
+    FAIL() << "the misspelt table in the base was accepted";
+  } catch (const CaseError& e) {
+    const std::string expected = (f.dir / "scene" / "scene.toml").string() + ":" + std::to_string(line) + ": domian";
+    EXPECT_EQ(std::string(e.what()).rfind(expected, 0), 0u) << e.what();
+  }
+}
+
+TEST(Variants, AMeshFileResolvesAgainstTheFileThatNamesIt) {
+  Folder f("mesh");
+  const std::string stl = slurp(std::string(MLCG_TEST_DATA) + "/mesh/cube_ascii.stl");
+  put(f.dir / "scene" / "meshes" / "m.stl", stl);
+  std::string scene = slurp(kCases + "quickstart/case.toml");
+  scene += "\n[[walls]]\nname = \"mesh\"\ntype = \"mesh\"\nfile = \"meshes/m.stl\"\nmaterial = \"steel\"\nscale = 0.001\n";
+  put(f.dir / "scene" / "scene.toml", scene);
+  put(f.dir / "study" / "v.toml", "base = \"../scene/scene.toml\"\n[time]\nend = 0.05\n");
+  const CaseSpec v = load_case((f.dir / "study" / "v.toml").string());
+  ASSERT_FALSE(v.walls.empty());
+  EXPECT_EQ(fs::path(v.walls.back().file).lexically_normal(), (f.dir / "scene" / "meshes" / "m.stl").lexically_normal());
+  // The resolved text names the mesh absolutely, so a run folder's copy still finds it.
+  put(f.dir / "elsewhere" / "case.toml", resolved_case_text((f.dir / "study" / "v.toml").string()));
+  EXPECT_EQ(fs::path(load_case((f.dir / "elsewhere" / "case.toml").string()).walls.back().file).lexically_normal(),
+            fs::path(v.walls.back().file).lexically_normal());
+}
+
+// `variant_text` as v.toml must be refused at `at` (file:1: base: ...) with `phrase`.
+void expect_base_error(const std::string& variant_text, const std::string& phrase, const Folder& f,
+                       const std::string& at = "v.toml") {
+  put(f.dir / "v.toml", variant_text);
+  try {
+    load_case((f.dir / "v.toml").string());
+    FAIL() << "accepted: " << variant_text;
+  } catch (const CaseError& e) {
+    const std::string msg = e.what();
+    EXPECT_EQ(msg.rfind((f.dir / at).string() + ":1: base: ", 0), 0u) << msg;
+    EXPECT_NE(msg.find(phrase), std::string::npos) << msg;
+  }
+}
+
+TEST(Variants, BadBasesAreRefusedWithTheReason) {
+  Folder f("bad");
+  expect_base_error("base = 3\n", "expected a string", f);
+  expect_base_error("base = \"\"\n", "empty string", f);
+  expect_base_error("base = \"missing.toml\"\n", "is not a file", f);
+  expect_base_error("base = \"v.toml\"\n", "a case cannot vary itself", f);
+  put(f.dir / "a.toml", "base = \"v.toml\"\n");
+  expect_base_error("base = \"a.toml\"\n", (f.dir / "v.toml").string() + " is already in this chain", f, "a.toml");
+}
+
+TEST(Variants, AChainOfBasesLaysEachOverTheOneBefore) {
+  Folder f("chain");
+  put(f.dir / "scene.toml", slurp(kCases + "quickstart/case.toml"));
+  put(f.dir / "a.toml", "base = \"scene.toml\"\nseed = 5\n[time]\nend = 0.05\n");
+  put(f.dir / "b.toml", "base = \"a.toml\"\n[time]\nend = 0.07\n");
+  const CaseSpec b = load_case((f.dir / "b.toml").string());
+  EXPECT_EQ(b.seed, 5u);
+  EXPECT_DOUBLE_EQ(b.time.end, 0.07);
+}
+
+// The insertion of quickstart/case.toml with its amount replaced, as a one-level case at `alpha`.
+CaseSpec with_amount(const Folder& f, const std::string& amount, double alpha) {
+  std::string scene = slurp(kCases + "quickstart/case.toml");
+  const size_t at = scene.find("count_alpha1 = ");
+  EXPECT_NE(at, std::string::npos);
+  scene.replace(at, scene.find('\n', at) - at, amount);
+  put(f.dir / "scene.toml", scene);
+  put(f.dir / "v.toml", "base = \"scene.toml\"\n[[levels]]\nname = \"l\"\nalpha = " + std::to_string(alpha) +
+                            "\ndt_alpha1 = 1.2e-5\n");
+  return load_case((f.dir / "v.toml").string());
+}
+
+TEST(Variants, CountAtAlphaOneIsDividedByAlphaCubedAndRounded) {
+  Folder f("count");
+  EXPECT_EQ(with_amount(f, "count_alpha1 = 2500", 2.0).insertions.at(0).count, 313);  // 312.5 rounds up
+  EXPECT_EQ(with_amount(f, "count_alpha1 = 2500", 1.0).insertions.at(0).count, 2500);
+  EXPECT_EQ(with_amount(f, "count_alpha1 = 1000", 2.5).insertions.at(0).count, 64);
+  EXPECT_EQ(with_amount(f, "count = 1000", 2.5).insertions.at(0).count, 1000);  // a level's own count is kept
+  const CaseSpec r = with_amount(f, "count_alpha1 = 1000", 2.0);
+  const CaseSpec r1 = with_amount(f, "count_alpha1 = 1000", 1.0);
+  EXPECT_NEAR(r.insertions.at(0).rate * 8.0, r1.insertions.at(0).rate, 1e-9 * r1.insertions.at(0).rate);
+  try {
+    with_amount(f, "count_alpha1 = 3", 2.0);
+    FAIL() << "3 particles at alpha = 1 are 0.375 at alpha = 2";
+  } catch (const CaseError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("scene.toml:"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("count_alpha1: 3 particles at alpha = 1 are 0.375 at alpha = 2"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("count_alpha1 >= 4"), std::string::npos) << msg;
+  }
+  try {
+    with_amount(f, "count_alpha1 = 100\ncount = 3", 1.0);
+    FAIL() << "two amounts accepted";
+  } catch (const CaseError& e) {
+    EXPECT_NE(std::string(e.what()).find("count_alpha1"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
