@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 
 #include <CLI/CLI.hpp>
@@ -30,6 +31,9 @@ int main(int argc, char** argv) {
   app.add_option("--curve-client-key", curve_client, "CURVE: this level's keypair file, issued by mlcg");
   CLI11_PARSE(app, argc, argv);
 
+  // No X display probing at MPI start (hwloc's OpenGL component; see launcher/main.cpp): for a dem_level
+  // started by hand or by a test, and its Open MPI singleton daemon. A user's own HWLOC_COMPONENTS is kept.
+  setenv("HWLOC_COMPONENTS", "-gl", 0);
   MPI_Init(&argc, &argv);
   int ranks = 1;
   MPI_Comm_size(MPI_COMM_WORLD, &ranks);

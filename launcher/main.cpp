@@ -21,6 +21,13 @@
 using namespace mlcg;
 
 int main(int argc, char** argv) {
+  // Inherited by every process the launcher starts (mpirun, the ranks and a one-rank level's Open MPI
+  // singleton daemon): hwloc's OpenGL component, which no level uses, tries X displays :0 to :N at every MPI
+  // start, each attempt looking up "localhost"; where that name is not in /etc/hosts (a debootstrap chroot)
+  // all 90 lookups of a level and its Open MPI daemon go to DNS, and each reply lost costs glibc's 5 s
+  // timeout: levels registered after 5.6 and 10.6 s instead of 0.6 s, past the coupler's registration
+  // deadline ([coupling] timeout). A user's own HWLOC_COMPONENTS is kept.
+  setenv("HWLOC_COMPONENTS", "-gl", 0);
   CLI::App app{"mlcg: multi-level coarse-grain DEM"};
   app.require_subcommand(1);
   auto* run = app.add_subcommand("run", "run a case");

@@ -11,8 +11,9 @@ for h in $(ip netns list 2>/dev/null | awk -v p="^${tag}h[0-9]+" '$1 ~ p {print 
 done
 ip link del "${tag}br0" 2>/dev/null
 if grep -q "# ${tag}netns\$" /etc/hosts 2>/dev/null; then
-  # /etc/hosts may be a bind mount (containers): rewrite it in place, never replace the file.
-  grep -v "# ${tag}netns\$" /etc/hosts > /tmp/mlcg-hosts.$$ && cat /tmp/mlcg-hosts.$$ > /etc/hosts
+  # /etc/hosts may be a bind mount (containers): rewrite it in place, never replace the file. grep -v exits 1
+  # when no line is left (a chroot without an /etc/hosts of its own): that is no failure.
+  { grep -v "# ${tag}netns\$" /etc/hosts || [ $? -eq 1 ]; } > /tmp/mlcg-hosts.$$ && cat /tmp/mlcg-hosts.$$ > /etc/hosts
   rm -f /tmp/mlcg-hosts.$$
 fi
 exit 0
