@@ -208,7 +208,7 @@ TEST(CaseParser, OtherForms) {  // constant and uniform radius, box region, coun
 }
 
 TEST(CaseParser, ReadmeExampleParses) {  // the user documentation's complete example stays valid
-  const std::string readme = read_file(std::string(MLCG_SOURCE_DIR) + "/cases/README.md");
+  const std::string readme = slurp(std::string(MLCG_SOURCE_DIR) + "/cases/README.md");
   const size_t begin = readme.find("```toml\n");
   ASSERT_NE(begin, std::string::npos);
   const size_t end = readme.find("```", begin + 8);

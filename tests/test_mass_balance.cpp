@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "files.hpp"
 #include "scene_support.hpp"
 
 using namespace mlcg;
@@ -53,8 +54,7 @@ void check_balance(const fs::path& dir, bool expect_removed, bool expect_failed)
   }
   EXPECT_EQ(removed, expect_removed);
   EXPECT_EQ(failed, expect_failed);
-  std::ifstream in(dir / "summary.json");
-  const auto j = nlohmann::json::parse(in);
+  const auto j = read_json(dir / "summary.json");
   const auto& b = j["mass_balance"];
   EXPECT_EQ(b["inserted"].get<int64_t>(), b["present"].get<int64_t>() + b["removed"].get<int64_t>());
   EXPECT_EQ(b["requested"].get<int64_t>(),
@@ -62,12 +62,6 @@ void check_balance(const fs::path& dir, bool expect_removed, bool expect_failed)
   EXPECT_NEAR(b["inserted_mass_kg"].get<double>(),
               b["present_mass_kg"].get<double>() + b["removed_mass_kg"].get<double>(),
               1e-12 * b["inserted_mass_kg"].get<double>());
-}
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("mlcg_balance_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  return d;
 }
 
 }  // namespace
@@ -80,7 +74,7 @@ TEST(MassBalance, HopperFillingAndDischargingBalancesAtEveryOutput) {
   cs.events[0].at = 0.05;
   cs.time.end = 0.25;
   cs.output.snapshot_interval = 0.0;
-  const fs::path dir = fresh_dir("hopper");
+  const fs::path dir = fresh_temp_path("balance_hopper");
   LevelOptions o = quiet();
   o.out_dir = dir;
   Level level(cs, o);
@@ -105,7 +99,7 @@ TEST(MassBalance, ParticlesThatCannotBePlacedAreCountedAsFailed) {
   cs.events[0].at = 0.1;
   cs.time.end = 0.12;
   cs.output.snapshot_interval = 0.0;
-  const fs::path dir = fresh_dir("blocked");
+  const fs::path dir = fresh_temp_path("balance_blocked");
   LevelOptions o = quiet();
   o.out_dir = dir;
   Level level(cs, o);

@@ -14,7 +14,7 @@
 
 #include "parallel/exchange.hpp"
 
-#include "../scene_support.hpp"
+#include "scene_support.hpp"
 
 using namespace mlcg;
 using namespace mlcg::test;
