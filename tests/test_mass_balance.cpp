@@ -67,13 +67,8 @@ void check_balance(const fs::path& dir, bool expect_removed, bool expect_failed)
 }  // namespace
 
 TEST(MassBalance, HopperFillingAndDischargingBalancesAtEveryOutput) {
-  auto cs = load("quickstart/case.toml");
-  cs.insertions[0].count = 800;
-  cs.events[0].after_insertion = false;
-  cs.events[0].mean_speed_below = -1.0;
-  cs.events[0].at = 0.05;
+  auto cs = timed_hopper(800);
   cs.time.end = 0.25;
-  cs.output.snapshot_interval = 0.0;
   const fs::path dir = fresh_temp_path("balance_hopper");
   LevelOptions o = quiet();
   o.out_dir = dir;
@@ -86,19 +81,14 @@ TEST(MassBalance, HopperFillingAndDischargingBalancesAtEveryOutput) {
 TEST(MassBalance, ParticlesThatCannotBePlacedAreCountedAsFailed) {
   // A region that holds far fewer particles than requested: the rest must be
   // reported as failed to place, never silently dropped.
-  auto cs = load("quickstart/case.toml");
+  auto cs = timed_hopper(400, 0.1);
   auto& ins = cs.insertions[0];
   ins.region.type = config::RegionType::Box;
   ins.region.min = {-0.008, -0.008, 0.09};
   ins.region.max = {0.008, 0.008, 0.10};
   ins.follow_gap = -1.0;
   ins.rate = -1.0;  // all at once
-  ins.count = 400;
-  cs.events[0].after_insertion = false;
-  cs.events[0].mean_speed_below = -1.0;
-  cs.events[0].at = 0.1;
   cs.time.end = 0.12;
-  cs.output.snapshot_interval = 0.0;
   const fs::path dir = fresh_temp_path("balance_blocked");
   LevelOptions o = quiet();
   o.out_dir = dir;

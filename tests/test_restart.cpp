@@ -25,13 +25,8 @@ namespace fs = std::filesystem;
 namespace {
 
 config::CaseSpec small_hopper(uint64_t checkpoint_steps) {
-  auto cs = load("quickstart/case.toml");
-  cs.insertions[0].count = 600;
-  cs.events[0].after_insertion = false;
-  cs.events[0].mean_speed_below = -1.0;
-  cs.events[0].at = 0.05;
+  auto cs = timed_hopper(600);
   cs.probes[0].window_start = 0.0;
-  cs.output.snapshot_interval = 0.0;
   cs.output.checkpoint_interval = static_cast<double>(checkpoint_steps) * cs.levels[0].dt;
   return cs;
 }
