@@ -15,12 +15,15 @@
 
 #include "launch_support.hpp"
 
+using launch_support::edited_case;
 using launch_support::fingerprint;
 using launch_support::kBin;
 using launch_support::kSrc;
 using launch_support::run;
-using launch_support::slurp;
-using launch_support::temp;
+using mlcg::test::fresh_temp_path;
+using mlcg::test::read_json;
+using mlcg::test::slurp;
+using mlcg::test::temp_path;
 
 namespace fs = std::filesystem;
 
@@ -64,9 +67,7 @@ const std::map<std::string, std::string> kRefused = {};
 // Every shipped case: exit 0 with a positive, finite estimate (or a refusal listed in kRefused); nothing is
 // written into the case folders or the working folder.
 TEST(Check, EveryShippedCasePrintsAnEstimateAndCreatesNothing) {
-  const fs::path cwd = temp("check_cwd"), cache = temp("check_cache");
-  fs::remove_all(cwd);
-  fs::remove_all(cache);
+  const fs::path cwd = fresh_temp_path("check_cwd"), cache = fresh_temp_path("check_cache");
   fs::create_directories(cwd);
   const auto cases_before = fingerprint(kSrc + "/cases");
   std::vector<std::string> files;
@@ -101,8 +102,7 @@ namespace {
 
 // `mlcg check` and `mlcg run` of `bad`: both exit 2 with the same message on stderr; the run starts nothing.
 void expect_same_refusal(const fs::path& bad, const std::string& expected) {
-  const fs::path runs = temp("check_refusal_run");
-  fs::remove_all(runs);
+  const fs::path runs = fresh_temp_path("check_refusal_run");
   const std::string check_err = bad.string() + ".check.err", run_err = bad.string() + ".run.err";
   EXPECT_EQ(run("MLCG_NO_CALIBRATE=1 " + kBin + "/mlcg check " + bad.string() + " > /dev/null 2> " + check_err), 2);
   EXPECT_EQ(run(kBin + "/mlcg run " + bad.string() + " --out " + runs.string() + " > /dev/null 2> " + run_err), 2);
@@ -115,36 +115,24 @@ void expect_same_refusal(const fs::path& bad, const std::string& expected) {
   fs::remove(bad);
 }
 
-// A copy of a shipped case with `from` replaced by `to`.
-fs::path edited(const std::string& shipped, const std::string& from, const std::string& to, const std::string& tag) {
-  std::string text = slurp(kSrc + "/" + shipped);
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  text.replace(at, from.size(), to);
-  const fs::path p = temp(tag).string() + ".toml";
-  std::ofstream(p) << text;
-  return p;
-}
-
 }  // namespace
 
 TEST(Check, RefusesWhatTheParserRefusesAsRunDoes) {
-  expect_same_refusal(edited("cases/collision/head_on.toml", "poisson_ratio = 0.25", "poisson_ratio = 0.75",
-                             "check_parser"),
+  expect_same_refusal(
+      edited_case("cases/collision/head_on.toml", {{"poisson_ratio = 0.25", "poisson_ratio = 0.75"}}, "check_parser"),
                       "materials[0].poisson_ratio: 0.75");
 }
 
 TEST(Check, RefusesWhatTheRegionRulesRefuseAsRunDoes) {
-  expect_same_refusal(edited("cases/quickstart/mlcg.toml", "max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.02]",
-                             "check_region"),
+  expect_same_refusal(edited_case("cases/quickstart/mlcg.toml",
+                                  {{"max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.02]"}}, "check_region"),
                       "coupling.regions[0].max: ");
 }
 
 // The level's guard refuses before step 1: `mlcg check` gives the message the level gives under `mlcg run`.
 TEST(Check, RefusesWhatTheTimeStepGuardRefusesWithTheLevelsMessage) {
-  const fs::path bad = edited("cases/stability/dt_guard.toml", "dt = 1e-6", "dt = 1e-4", "check_dt");
-  const fs::path runs = temp("check_dt_run");
-  fs::remove_all(runs);
+  const fs::path bad = edited_case("cases/stability/dt_guard.toml", {{"dt = 1e-6", "dt = 1e-4"}}, "check_dt");
+  const fs::path runs = fresh_temp_path("check_dt_run");
   EXPECT_EQ(run("MLCG_NO_CALIBRATE=1 " + kBin + "/mlcg check " + bad.string() + " > " + bad.string() + ".out 2> " +
                 bad.string() + ".err"),
             2);
@@ -161,8 +149,8 @@ TEST(Check, RefusesWhatTheTimeStepGuardRefusesWithTheLevelsMessage) {
 // Every level of a hierarchy whose guard refuses is named, with the message that level gives under `mlcg run`
 // (where the first level to refuse ends the run, so which others get to speak is a race).
 TEST(Check, NamesEveryLevelOfAHierarchyWhoseGuardRefuses) {
-  const fs::path bad = edited("cases/stability/coupled/dense_stream.toml", "velocity = [0.0, 0.0, -5.0]",
-                              "velocity = [0.0, 0.0, -30.0]", "check_fast");
+  const fs::path bad = edited_case("cases/stability/coupled/dense_stream.toml",
+                                   {{"velocity = [0.0, 0.0, -5.0]", "velocity = [0.0, 0.0, -30.0]"}}, "check_fast");
   EXPECT_EQ(run("MLCG_NO_CALIBRATE=1 " + kBin + "/mlcg check " + bad.string() + " > /dev/null 2> " + bad.string() +
                 ".err"),
             2);
@@ -181,19 +169,17 @@ TEST(Check, NamesEveryLevelOfAHierarchyWhoseGuardRefuses) {
 // ~3e7 particle-steps). The calibration runs just before the run, so when other work slows the machine
 // both are slowed alike; a load that changes between the two moves the ratio (the bound is a factor 2).
 TEST(Check, EstimatesAShortQuickstartRunWithinAFactorOfTwo) {
-  const fs::path c = edited("cases/quickstart/case.toml", "end = { event = \"open\", plus = 0.5 }", "end = 0.2",
-                            "check_short");
-  const fs::path cwd = temp("check_short_cwd"), cache = temp("check_short_cache"), dir = temp("check_short_run");
-  fs::remove_all(cwd);
-  fs::remove_all(cache);
-  fs::remove_all(dir);
+  const fs::path c =
+      edited_case("cases/quickstart/case.toml", {{"end = { event = \"open\", plus = 0.5 }", "end = 0.2"}}, "check_short");
+  const fs::path cwd = fresh_temp_path("check_short_cwd"), cache = fresh_temp_path("check_short_cache"),
+                 dir = fresh_temp_path("check_short_run");
   fs::create_directories(cwd);
   std::string out;
   ASSERT_EQ(check(c.string() + " --calibrate", cwd, cache, out), 0) << out;
   const Estimate e = parse_estimate(out);
   ASSERT_TRUE(e.found) << out;
   ASSERT_EQ(run(kBin + "/mlcg run " + c.string() + " --out " + dir.string() + " --quiet > /dev/null 2>&1"), 0);
-  const auto s = nlohmann::json::parse(slurp(dir / "summary.json"));
+  const auto s = read_json(dir / "summary.json");
   const double wall = s["wall_seconds"].get<double>(), steps = s["levels"][0]["particle_steps"].get<double>();
   const double ratio = e.wall_seconds / wall;
   std::printf("[check] estimate %.3g particle-steps, %.3g s; run %.3g particle-steps, %.3g s wall; ratio %.2f\n",

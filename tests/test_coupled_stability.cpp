@@ -29,8 +29,8 @@ using launch_support::kSrc;
 using launch_support::remove_run;
 using launch_support::run;
 using launch_support::run_hierarchy_case;
-using launch_support::slurp;
-using launch_support::temp;
+using mlcg::test::slurp;
+using mlcg::test::temp_path;
 
 namespace {
 
@@ -137,7 +137,7 @@ TEST(CoupledRefusals, AStreamTooFastForTheLevelsDtIsRefusedNamingTheLevelTheSpee
   const std::string v = "velocity = [0.0, 0.0, -5.0]";
   ASSERT_NE(text.find(v), std::string::npos);
   text.replace(text.find(v), v.size(), "velocity = [0.0, 0.0, -30.0]");
-  const fs::path c = temp("cstab_fast").string() + ".toml", dir = temp("cstab_fast");
+  const fs::path c = temp_path("cstab_fast").string() + ".toml", dir = temp_path("cstab_fast");
   std::ofstream(c) << text;
   fs::remove_all(dir);
   EXPECT_NE(run(kBin + "/mlcg run " + c.string() + " --out " + dir.string() + " --quiet > " + dir.string() +

@@ -9,19 +9,21 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <thread>
 
 #include <spdlog/sinks/null_sink.h>
 #include <spdlog/spdlog.h>
 
 #include "bus/channel.hpp"
+#include "files.hpp"
 #include "service.hpp"
 
 using namespace mlcg;
 using namespace mlcg::coupling;
 namespace fs = std::filesystem;
+using mlcg::test::read_json;
+using mlcg::test::slurp;
+using mlcg::test::temp_path;
 using std::chrono::milliseconds;
 
 namespace {
@@ -225,10 +227,7 @@ RunResult run_hierarchy(const std::vector<double>& alphas, uint64_t intervals, c
     if (!run.levels[l].error.empty()) run.error += "; level L" + std::to_string(l) + ": " + run.levels[l].error;
   run.refused = service.refused();
   for (auto& t : threads) t.join();
-  std::ifstream f(out / "coupling" / "region0.csv");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  run.csv = ss.str();
+  run.csv = slurp(out / "coupling" / "region0.csv");
   for (const auto& fs : coupler.planner(0).faces()) {
     run.crossed += fs.crossed;
     run.inserted += fs.inserted;
@@ -239,7 +238,7 @@ RunResult run_hierarchy(const std::vector<double>& alphas, uint64_t intervals, c
 }
 
 fs::path scratch(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("mlcg_cpl_" + std::to_string(getpid())) / name;
+  const fs::path p = temp_path("cpl") / name;
   fs::remove_all(p);
   return p;
 }
@@ -271,8 +270,7 @@ TEST(CouplerService, ReportsTheBusBytesEachLevelCounted) {
   const fs::path out = scratch("bytes");
   const RunResult run = run_hierarchy({4.0, 2.0, 1.0}, 25, out);
   ASSERT_EQ(run.code, 0) << run.error;
-  std::ifstream f(out / "coupling" / "summary.json");
-  const auto j = nlohmann::json::parse(f);
+  const auto j = read_json(out / "coupling" / "summary.json");
   ASSERT_EQ(j["levels"].size(), 3u);
   for (size_t l = 0; l < 3; ++l) {
     const auto& lv = j["levels"][l];

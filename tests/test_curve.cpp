@@ -10,7 +10,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -19,9 +18,13 @@
 
 #include "bus/channel.hpp"
 #include "bus/curve.hpp"
+#include "files.hpp"
+#include "shell.hpp"
 
 using namespace mlcg::bus;
 namespace fs = std::filesystem;
+using mlcg::test::slurp;
+using mlcg::test::TempDir;
 using std::chrono::milliseconds;
 
 namespace {
@@ -72,13 +75,6 @@ struct Server {
     auth.watch(ch.socket());
   }
 };
-
-fs::path temp_dir(const std::string& tag) {
-  const fs::path d = fs::temp_directory_path() / ("mlcg_curve_" + tag + "_" + std::to_string(getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 }  // namespace
 
@@ -136,7 +132,8 @@ TEST(Curve, AnIssuedKeySpeaksOnlyForItsOwner) {
 // The same through the real coupler_service with the run's key files: the coupler answers the impostor with
 // its refusal, names both levels in coupler.log, and does not register 'fine'.
 TEST(Curve, CouplerServiceRefusesAnotherLevelsKeyAndLogsTheRefusal) {
-  const fs::path d = temp_dir("owner");
+  const TempDir tmp("curve_owner");
+  const fs::path& d = tmp.path();
   const curve::KeyPair server = curve::generate(), coarse = curve::generate();
   curve::write_key_file(d / "server.key", server);
   curve::write_client_list(d / "clients.pub", {{"coarse", coarse.public_key}, {"fine", curve::generate().public_key}});
@@ -173,12 +170,10 @@ TEST(Curve, CouplerServiceRefusesAnotherLevelsKeyAndLogsTheRefusal) {
   ASSERT_TRUE(back->ok()) << back->error;
   ASSERT_TRUE(back->env.has_refused()) << "the coupler did not refuse the registration";
   EXPECT_EQ(back->env.refused().reason(), "the CURVE key issued to 'coarse' was used by 'fine'");
-  std::ifstream in(d / "run" / "coupler.log");
-  const std::string log((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string log = slurp(d / "run" / "coupler.log");
   EXPECT_NE(log.find("refused a message from 'fine': the CURVE key issued to 'coarse' was used by 'fine'"),
             std::string::npos) << log;
   EXPECT_EQ(log.find("level 'fine' registered"), std::string::npos) << log;
-  fs::remove_all(d);
 }
 
 TEST(Curve, ClientWithoutKeysCannotRegisterAndIsLogged) {
@@ -231,21 +226,20 @@ TEST(Curve, NonLoopbackTcpWithoutKeysIsRefused) {
 }
 
 TEST(Curve, CouplerServiceRefusesANonLoopbackEndpointWithoutKeys) {
-  const fs::path d = temp_dir("svc");
+  const TempDir tmp("curve_svc");
+  const fs::path& d = tmp.path();
   const std::string out = (d / "out.txt").string();
   const std::string cmd = std::string(MLCG_BIN_DIR) + "/coupler_service " + MLCG_SOURCE_DIR +
                           "/cases/quickstart/mlcg.toml --quiet --out " + d.string() +
                           " --endpoint tcp://10.77.0.1:5555 > " + out + " 2>&1";
-  const int s = std::system(cmd.c_str());
-  EXPECT_EQ(WIFEXITED(s) ? WEXITSTATUS(s) : -1, 1);
-  std::ifstream in(out);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(mlcg::test::run(cmd), 1);
+  const std::string text = slurp(out);
   EXPECT_NE(text.find("endpoint tcp://10.77.0.1:5555 is not loopback or ipc"), std::string::npos) << text;
-  fs::remove_all(d);
 }
 
 TEST(Curve, KeyFilesArePrivateAndRoundTrip) {
-  const fs::path d = temp_dir("keys");
+  const TempDir tmp("curve_keys");
+  const fs::path& d = tmp.path();
   const curve::KeyPair k = curve::generate();
   curve::write_key_file(d / "a.key", k);
   curve::write_client_list(d / "clients.pub", {{"fine", k.public_key}, {"coarse", curve::generate().public_key}});
@@ -280,5 +274,4 @@ TEST(Curve, KeyFilesArePrivateAndRoundTrip) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("b.key:3: secret: not a CURVE key"), std::string::npos) << e.what();
   }
-  fs::remove_all(d);
 }

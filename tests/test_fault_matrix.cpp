@@ -28,12 +28,12 @@ using launch_support::run;
 using launch_support::run_hierarchy_case;
 using launch_support::running;
 using launch_support::short_quickstart;
-using launch_support::slurp;
 using launch_support::start_mlcg;
-using launch_support::temp;
 using launch_support::wait_exit_within;
 using launch_support::wait_for_checkpoint;
-using run_checks::read_json;
+using mlcg::test::read_json;
+using mlcg::test::slurp;
+using mlcg::test::temp_path;
 
 namespace fs = std::filesystem;
 
@@ -109,7 +109,7 @@ std::function<pid_t()> rank_of(const fs::path& dir, const std::string& level) {
 struct Chain {
   Chain(const std::string& tag, int fine_ranks)
       : cfile(short_quickstart(kTimeout, fine_ranks, tag)), ref(run_hierarchy_case(cfile.string(), tag + "_ref")),
-        dir(temp(tag)) {
+        dir(temp_path(tag)) {
     fs::remove_all(dir);
   }
   ~Chain() {

@@ -22,20 +22,21 @@ using launch_support::fingerprint;
 using launch_support::KillOnExit;
 using launch_support::quickstart_with_timeout;
 using launch_support::running;
-using launch_support::temp;
 using launch_support::kBin;
 using launch_support::kSrc;
 using launch_support::pid_of;
 using launch_support::remove_run;
 using launch_support::run;
 using launch_support::run_hierarchy_case;
-using launch_support::slurp;
 using launch_support::start;
 using launch_support::start_mlcg;
 using launch_support::wait_exit;
 using launch_support::wait_exit_within;
 using launch_support::wait_for_checkpoint;
-using run_checks::read_json;
+using mlcg::test::fresh_temp_path;
+using mlcg::test::read_json;
+using mlcg::test::slurp;
+using mlcg::test::temp_path;
 
 namespace fs = std::filesystem;
 
@@ -81,8 +82,7 @@ bool wait_for_file(const fs::path& file, pid_t pid) {
 // A hierarchy run of the quickstart case stopped with Ctrl-C after a few consistent checkpoints: a run
 // folder `mlcg resume` continues.
 fs::path interrupted_hierarchy(const std::string& tag) {
-  const fs::path dir = temp(tag);
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path(tag);
   const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
                                dir.string() + ".out");
   EXPECT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");
@@ -96,8 +96,7 @@ fs::path interrupted_hierarchy(const std::string& tag) {
 // ---- A run never reuses a folder (issue 13, fault 1) ----
 
 TEST(RunFolder, AnExistingRunFolderIsRefusedBeforeAnythingIsWritten) {
-  const fs::path dir = temp("reuse");
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("reuse");
   ASSERT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/collision/head_on.toml --out " + dir.string() + " --quiet > " +
                 dir.string() + ".out 2>&1"),
             0) << slurp(dir.string() + ".out");
@@ -118,7 +117,7 @@ TEST(RunFolder, AnExistingRunFolderIsRefusedBeforeAnythingIsWritten) {
 }
 
 TEST(RunFolder, AFileGivenAsTheRunFolderIsRefusedWithoutAnAbort) {
-  const fs::path file = temp("outfile");
+  const fs::path file = temp_path("outfile");
   std::ofstream(file) << "not a run folder\n";
   EXPECT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/collision/head_on.toml --out " + file.string() + " > " +
                 file.string() + ".out 2>&1"),
@@ -137,8 +136,7 @@ TEST(RunFolder, AFileGivenAsTheRunFolderIsRefusedWithoutAnAbort) {
 // within a few seconds, the kernel releases the launcher's lock, and the run resumes from its last
 // consistent checkpoint to completion.
 TEST(LauncherDeath, AKilledLauncherTakesEveryProcessOfItsRunWithIt) {
-  const fs::path dir = temp("kill9");
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("kill9");
   const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
                                dir.string() + ".out");
   KillOnExit guard{pid};
@@ -211,7 +209,7 @@ TEST(RunFolderLock, AFolderHeldByALiveLauncherIsNeitherResumedNorReused) {
 // many seconds of SSI. It logs its progress; SIGTERM inside it ends the level within 2 s, with the
 // batch dropped.
 TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
-  const fs::path dir = temp("bigbatch");
+  const fs::path dir = temp_path("bigbatch");
   const fs::path cfile = dir.string() + ".toml";
   fs::remove_all(dir);
   std::string text = slurp(kSrc + "/cases/quickstart/case.toml");
@@ -273,8 +271,7 @@ pid_t other_thread_taking_sigterm(pid_t pid) {
 // may be taken by any thread that does not block it: sent to an Open MPI thread, its handler runs there
 // and the level's poll is not woken; the wait must still end within 2 s.
 TEST(DemLevelSignals, SigtermEndsTheWaitForTheCouplerWithinTwoSeconds) {
-  const fs::path dir = temp("nocoupler");
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("nocoupler");
   const pid_t pid = start({kBin + "/dem_level", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--level",
                            "coarse", "--coupler", "ipc://" + dir.string() + ".ipc", "--quiet"},
                           dir.string() + ".out");
@@ -304,8 +301,7 @@ TEST(DemLevelSignals, SigtermEndsTheWaitForTheCouplerWithinTwoSeconds) {
 TEST(HungLevel, AStoppedFineLevelIsNamedWithinTheTimeoutAndNoProcessIsLeft) {
   constexpr double kTimeout = 5.0;
   const fs::path cfile = quickstart_with_timeout(kTimeout, "hung");
-  const fs::path dir = temp("hung");
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("hung");
   const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
   KillOnExit guard{pid};
   ASSERT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");
@@ -348,7 +344,7 @@ TEST(HungLevel, AStoppedFineLevelIsNamedWithinTheTimeoutAndNoProcessIsLeft) {
 // coupler drops it once they back up (logged once, its binary id in hex) and the run ends with the per-face
 // totals of an undisturbed run (runs are deterministic).
 TEST(BusFlood, APeerThatNeverReadsIsDroppedAndTheRunIsUnaffected) {
-  const fs::path ref = run_hierarchy_case("cases/quickstart/mlcg.toml", "flood_ref"), dir = temp("flood");
+  const fs::path ref = run_hierarchy_case("cases/quickstart/mlcg.toml", "flood_ref"), dir = temp_path("flood");
   ASSERT_FALSE(HasFailure());
   fs::remove_all(dir);
   const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},

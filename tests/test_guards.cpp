@@ -8,12 +8,12 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "io/h5.hpp"
+#include "files.hpp"
 #include "scene_support.hpp"
 
 using namespace mlcg;
@@ -94,8 +94,7 @@ TEST(RunGuard, NonFiniteVelocityStopsWithinOneStepNamingTheParticle) {
 
 TEST(RunGuard, ExcessiveOverlapStopsTheRunWithACheckpointAndAFailedSummary) {
   auto cs = load("collision/head_on.toml");
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_guard_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("guard");
   LevelOptions o = quiet();
   o.out_dir = dir;
   Level level(cs, o);
@@ -105,8 +104,7 @@ TEST(RunGuard, ExcessiveOverlapStopsTheRunWithACheckpointAndAFailedSummary) {
   EXPECT_EQ(level.run(), RunStatus::Failed);
   EXPECT_EQ(level.step(), 0u);  // stopped inside the first step
   EXPECT_TRUE(fs::exists(dir / "checkpoint_failed.h5"));
-  std::ifstream in(dir / "summary.json");
-  const auto j = nlohmann::json::parse(in);
+  const auto j = read_json(dir / "summary.json");
   EXPECT_EQ(j["status"], "failed");
   const std::string reason = j["reason"];
   EXPECT_NE(reason.find("overlap of 100.0 %"), std::string::npos) << reason;
@@ -151,7 +149,7 @@ struct InitialParticle {
 
 // An [initial] snapshot of `ps` (one dataset `short_radius` entry shorter when asked).
 fs::path write_initial(const std::vector<InitialParticle>& ps, bool short_radius = false) {
-  const fs::path f = fs::temp_directory_path() / ("mlcg_initial_" + std::to_string(::getpid()) + ".h5");
+  const fs::path f = temp_path("initial").string() + ".h5";
   std::vector<Vec3> x, v, w;
   std::vector<double> r;
   std::vector<int64_t> id;

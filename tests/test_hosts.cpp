@@ -5,18 +5,20 @@
 // the hosts come from Slurm's environment. (The runs themselves: tests/netns, tests/slurm, test_launcher.)
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-#include <unistd.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 
 #include "config/case_parser.hpp"
+#include "files.hpp"
+#include "shell.hpp"
 #include "hosts.hpp"
 
 namespace fs = std::filesystem;
+using mlcg::test::run;
+using mlcg::test::slurp;
+using mlcg::test::temp_path;
 
 namespace {
 
@@ -29,15 +31,12 @@ struct Result {
 
 // Runs `mlcg run CASE ARGS --out DIR`; the run folder must not appear when mlcg refuses.
 Result mlcg_run(const std::string& kase, const std::string& args) {
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_hosts_" + std::to_string(getpid()));
+  const fs::path dir = temp_path("hosts");
   const std::string log = dir.string() + ".out";
-  const int s = std::system((std::string(MLCG_BIN_DIR) + "/mlcg run " + kase + " " + args + " --out " + dir.string() +
-                             " > " + log + " 2>&1")
-                                .c_str());
   Result r;
-  r.code = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-  std::ifstream in(log);
-  r.out.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  r.code = run(std::string(MLCG_BIN_DIR) + "/mlcg run " + kase + " " + args + " --out " + dir.string() + " > " + log +
+               " 2>&1");
+  r.out = slurp(log);
   EXPECT_FALSE(fs::exists(dir)) << "a refused run must not create its folder";
   fs::remove_all(dir);
   fs::remove(log);
@@ -46,7 +45,7 @@ Result mlcg_run(const std::string& kase, const std::string& args) {
 
 // Writes a hostfile with `text` and returns its path.
 std::string hostfile(const std::string& text) {
-  const fs::path p = fs::temp_directory_path() / ("mlcg_hosts_" + std::to_string(getpid()) + ".hosts");
+  const fs::path p = temp_path("hosts").string() + ".hosts";
   std::ofstream(p) << text;
   return p.string();
 }
@@ -95,11 +94,10 @@ using mlcg::launcher::Placement;
 
 // The quickstart hierarchy with `fine_ranks` ranks on its fine level.
 mlcg::config::CaseSpec quickstart(int fine_ranks) {
-  std::ifstream src(kCase);
-  std::string text((std::istreambuf_iterator<char>(src)), std::istreambuf_iterator<char>());
+  std::string text = slurp(kCase);
   const std::string fine = "name = \"fine\"\nalpha = 1.0\n";
   text.replace(text.find(fine), fine.size(), fine + "ranks = " + std::to_string(fine_ranks) + "\n");
-  const fs::path p = fs::temp_directory_path() / ("mlcg_hosts_case_" + std::to_string(getpid()) + ".toml");
+  const fs::path p = temp_path("hosts_case").string() + ".toml";
   std::ofstream(p) << text;
   auto cs = mlcg::config::load_case(p.string());
   fs::remove(p);
@@ -215,10 +213,9 @@ TEST(Hosts, InsideASlurmAllocationTheNodesAreTheHosts) {
 }
 
 TEST(Hosts, NonLoopbackEndpointWithoutCurveIsRefusedByTheLauncher) {
-  const fs::path kase = fs::temp_directory_path() / ("mlcg_hosts_case_" + std::to_string(getpid()) + ".toml");
+  const fs::path kase = temp_path("hosts_case").string() + ".toml";
   {
-    std::ifstream src(kCase);
-    std::string text((std::istreambuf_iterator<char>(src)), std::istreambuf_iterator<char>());
+    std::string text = slurp(kCase);
     text.replace(text.find("[coupling]"), 10, "[coupling]\nendpoint = \"tcp://10.77.0.9:5555\"");
     std::ofstream(kase) << text;
   }

@@ -13,8 +13,8 @@
 #include <fstream>
 #include <limits>
 #include <regex>
-#include <sstream>
 
+#include "files.hpp"
 #include "io/atomic_file.hpp"
 #include "io/grid_series.hpp"
 #include "io/h5.hpp"
@@ -26,25 +26,15 @@ using namespace mlcg::io;
 
 namespace {
 
+using mlcg::test::slurp;
+
+// A folder of its own for each test case.
 class IoTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir = fs::temp_directory_path() /
-          ("mlcg_test_io_" + std::to_string(::getpid()) + "_" +
-           ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  void TearDown() override { fs::remove_all(dir); }
-  fs::path dir;
+  const mlcg::test::TempDir tmp{std::string("test_io_") +
+                                ::testing::UnitTest::GetInstance()->current_test_info()->name()};
+  const fs::path dir = tmp.path();
 };
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 int count_temps(const fs::path& d) {
   int n = 0;

@@ -33,30 +33,29 @@ using launch_support::processes_naming;
 using launch_support::remove_run;
 using launch_support::run_hierarchy_case;
 using launch_support::run;
-using launch_support::slurp;
 using launch_support::start_mlcg;
 using launch_support::wait_exit;
 using launch_support::wait_for_checkpoint;
 using run_checks::check_region;
-using run_checks::read_json;
+using mlcg::test::fresh_temp_path;
+using mlcg::test::read_json;
+using mlcg::test::slurp;
+using mlcg::test::temp_path;
 
 namespace fs = std::filesystem;
 
 TEST(Launcher, RunsASingleLevelCaseToACompleteRunFolder) {
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_launch_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("launch");
   const fs::path log = dir.string() + ".out";
   ASSERT_EQ(run(kBin + "/mlcg run " + kSrc + "/cases/collision/head_on.toml --out " + dir.string() + " > " +
                 log.string() + " 2>&1"),
             0);
-  std::ifstream out(log);
-  const std::string text((std::istreambuf_iterator<char>(out)), std::istreambuf_iterator<char>());
+  const std::string text = slurp(log);
   EXPECT_NE(text.find("no coupler needed"), std::string::npos) << text;
   EXPECT_NE(text.find("completed"), std::string::npos) << text;
   for (const char* f : {"summary.json", "series.csv", "log.txt", "checkpoint.h5", "particles.xmf", "case.toml"})
     EXPECT_TRUE(fs::exists(dir / f)) << f;
-  std::ifstream in(dir / "summary.json");
-  const auto j = nlohmann::json::parse(in);
+  const auto j = read_json(dir / "summary.json");
   EXPECT_EQ(j["status"], "completed");
   EXPECT_EQ(j["levels"][0]["particles_final"], 2);
   EXPECT_EQ(j["levels"][0]["particle_steps"], 2 * 5000);
@@ -68,11 +67,10 @@ TEST(Launcher, RunsASingleLevelCaseToACompleteRunFolder) {
 }
 
 TEST(Launcher, RefusesABadCaseWithFileLineAndKey) {
-  const fs::path bad = fs::temp_directory_path() / ("mlcg_bad_" + std::to_string(::getpid()) + ".toml");
+  const fs::path bad = temp_path("bad").string() + ".toml";
   int line = 0;
   {
-    std::ifstream src(kSrc + "/cases/collision/head_on.toml");
-    std::string text((std::istreambuf_iterator<char>(src)), std::istreambuf_iterator<char>());
+    std::string text = slurp(kSrc + "/cases/collision/head_on.toml");
     const size_t at = text.find("poisson_ratio = 0.25");
     line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
     text.replace(at, 20, "poisson_ratio = 0.75");
@@ -81,8 +79,7 @@ TEST(Launcher, RefusesABadCaseWithFileLineAndKey) {
   const fs::path log = bad.string() + ".out";
   EXPECT_EQ(run(kBin + "/mlcg run " + bad.string() + " --out " + bad.string() + ".run > " + log.string() + " 2>&1"),
             2);
-  std::ifstream out(log);
-  const std::string text((std::istreambuf_iterator<char>(out)), std::istreambuf_iterator<char>());
+  const std::string text = slurp(log);
   EXPECT_NE(text.find(bad.filename().string() + ":" + std::to_string(line) + ": materials[0].poisson_ratio"), std::string::npos) << text;
   EXPECT_FALSE(fs::exists(bad.string() + ".run")) << "a refused case must not start a run";
   fs::remove(bad);
@@ -92,11 +89,10 @@ TEST(Launcher, RefusesABadCaseWithFileLineAndKey) {
 // The region rules run before any process: a fine region whose top is 0.83 orifice diameters above
 // the orifice is refused with exit code 2, its file, line and key, and no run folder.
 TEST(Launcher, RefusesAFineRegionTooCloseAboveTheOrificeBeforeStartingAnything) {
-  const fs::path bad = fs::temp_directory_path() / ("mlcg_lowtop_" + std::to_string(::getpid()) + ".toml");
+  const fs::path bad = temp_path("lowtop").string() + ".toml";
   int line = 0;
   {
-    std::ifstream src(kSrc + "/cases/quickstart/mlcg.toml");
-    std::string text((std::istreambuf_iterator<char>(src)), std::istreambuf_iterator<char>());
+    std::string text = slurp(kSrc + "/cases/quickstart/mlcg.toml");
     const std::string from = "max = [0.04, 0.04, 0.04]";
     const size_t at = text.find(from);
     line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
@@ -106,8 +102,7 @@ TEST(Launcher, RefusesAFineRegionTooCloseAboveTheOrificeBeforeStartingAnything) 
   const fs::path log = bad.string() + ".out";
   EXPECT_EQ(run(kBin + "/mlcg run " + bad.string() + " --out " + bad.string() + ".run > " + log.string() + " 2>&1"),
             2);
-  std::ifstream out(log);
-  const std::string text((std::istreambuf_iterator<char>(out)), std::istreambuf_iterator<char>());
+  const std::string text = slurp(log);
   EXPECT_NE(text.find("error: " + bad.string() + ":" + std::to_string(line) + ": coupling.regions[0].max: "),
             std::string::npos)
       << text;
@@ -119,18 +114,16 @@ TEST(Launcher, RefusesAFineRegionTooCloseAboveTheOrificeBeforeStartingAnything) 
 }
 
 TEST(Launcher, StartsAMultiRankLevelThroughMpirun) {
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_launch2_" + std::to_string(::getpid()));
+  const fs::path dir = temp_path("launch2");
   const fs::path cfile = dir.string() + ".toml";
   fs::remove_all(dir);
   {
-    std::ifstream src(kSrc + "/cases/collision/head_on.toml");
-    std::string text((std::istreambuf_iterator<char>(src)), std::istreambuf_iterator<char>());
+    std::string text = slurp(kSrc + "/cases/collision/head_on.toml");
     text.replace(text.find("dt = 1e-7"), 9, "dt = 1e-7\nranks = 2");
     std::ofstream(cfile) << text;
   }
   ASSERT_EQ(run(kBin + "/mlcg run " + cfile.string() + " --out " + dir.string() + " --quiet > /dev/null 2>&1"), 0);
-  std::ifstream in(dir / "summary.json");
-  const auto j = nlohmann::json::parse(in);
+  const auto j = read_json(dir / "summary.json");
   EXPECT_EQ(j["status"], "completed");
   EXPECT_EQ(j["levels"][0]["ranks"], 2);
   EXPECT_EQ(j["levels"][0]["performance"]["ranks"], 2);
@@ -262,7 +255,7 @@ TEST(MlcgJunction, FineParticlesArePlacedInsideTheWallsBelowAJunction) {
 
 namespace {
 fs::path case_with(const std::string& extra, const std::string& tag) {
-  const fs::path c = fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()) + ".toml");
+  const fs::path c = temp_path(tag).string() + ".toml";
   std::ofstream(c) << slurp(kSrc + "/cases/quickstart/mlcg.toml") << "\n" << extra << "\n";
   return c;
 }
@@ -270,8 +263,7 @@ fs::path case_with(const std::string& extra, const std::string& tag) {
 
 TEST(MlcgRecovery, InterruptThenResumeGivesTheUninterruptedResult) {
   const fs::path ref = run_hierarchy_case("cases/quickstart/mlcg.toml", "ref");
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_int_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("int");
   const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
                                dir.string() + ".out");
   ASSERT_TRUE(wait_for_checkpoint(dir, 300, pid)) << slurp(dir.string() + ".out");
@@ -305,8 +297,7 @@ TEST(MlcgRecovery, InterruptThenResumeGivesTheUninterruptedResult) {
 
 TEST(MlcgRecovery, KilledFineLevelIsRestartedFromTheLastCheckpointAndTheRunCompletes) {
   const fs::path cfile = case_with("[launcher]\nrestart_on_failure = 2", "restart");
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_kill_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("kill");
   const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
   ASSERT_TRUE(wait_for_checkpoint(dir, 300, pid)) << slurp(dir.string() + ".out");
   // `mlcg ps` shows the running hierarchy.
@@ -340,10 +331,9 @@ TEST(MlcgRecovery, KilledMpirunOfATwoRankFineLevelLeavesNoRankBehind) {
   const std::string fine = "name = \"fine\"\nalpha = 1.0\ndt_alpha1 = 1.2e-5\n";
   ASSERT_NE(text.find(fine), std::string::npos);
   text.replace(text.find(fine), fine.size(), fine + "ranks = 2\n");
-  const fs::path cfile = fs::temp_directory_path() / ("mlcg_mpikill_" + std::to_string(::getpid()) + ".toml");
+  const fs::path cfile = temp_path("mpikill").string() + ".toml";
   std::ofstream(cfile) << text;
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_mpikill_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("mpikill");
   const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
   ASSERT_TRUE(wait_for_checkpoint(dir, 200, pid)) << slurp(dir.string() + ".out");
   const pid_t mpirun = pid_of(dir, "level 'fine'");
@@ -358,8 +348,7 @@ TEST(MlcgRecovery, KilledMpirunOfATwoRankFineLevelLeavesNoRankBehind) {
 }
 
 TEST(MlcgRecovery, KilledFineLevelWithoutRestartStopsEveryProcessAndLeavesALoadableCheckpoint) {
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_kill0_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("kill0");
   const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
                                dir.string() + ".out");
   ASSERT_TRUE(wait_for_checkpoint(dir, 300, pid)) << slurp(dir.string() + ".out");
@@ -399,8 +388,7 @@ fs::path copy_of_dem_level(const std::string& tag) {
 TEST(MlcgSwap, AnotherProtocolIsRefusedAndTheOldBinaryContinuesThenACopySwapsIn) {
   const fs::path ref = run_hierarchy_case("cases/quickstart/mlcg.toml", "swap_ref");
   const fs::path copy = copy_of_dem_level("swap");
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_swap_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("swap");
   const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
                                dir.string() + ".out");
   ASSERT_TRUE(wait_for_checkpoint(dir, 200, pid)) << slurp(dir.string() + ".out");
@@ -429,8 +417,7 @@ TEST(MlcgSwap, AnotherProtocolIsRefusedAndTheOldBinaryContinuesThenACopySwapsIn)
 // still answers kill(pid, 0). It now refuses at once, naming the launcher: the start and the wait ask the
 // same question (launcher_alive).
 TEST(MlcgSwap, AnEndedLauncherNotYetReapedIsNotWaitedFor) {
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_swapz_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("swapz");
   const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
                                dir.string() + ".out");
   KillOnExit guard{pid};
@@ -471,8 +458,7 @@ TEST(MlcgSwap, CaseSwapEntryReplacesTheFineLevelAtItsTime) {
   const fs::path ref = run_hierarchy_case("cases/quickstart/mlcg.toml", "cswap_ref");
   const fs::path copy = copy_of_dem_level("caseswap");
   const fs::path cfile = case_with("[[swap]]\nlevel = \"fine\"\nat = 0.3\nbinary = \"" + copy.string() + "\"", "cswap");
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_cswap_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("cswap");
   ASSERT_EQ(run(kBin + "/mlcg run " + cfile.string() + " --out " + dir.string() + " --quiet > " + dir.string() +
                 ".out 2>&1"),
             0) << slurp(dir.string() + ".out");

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "files.hpp"
 #include "scene_support.hpp"
 
 using namespace mlcg;
@@ -53,8 +54,7 @@ void check_balance(const fs::path& dir, bool expect_removed, bool expect_failed)
   }
   EXPECT_EQ(removed, expect_removed);
   EXPECT_EQ(failed, expect_failed);
-  std::ifstream in(dir / "summary.json");
-  const auto j = nlohmann::json::parse(in);
+  const auto j = read_json(dir / "summary.json");
   const auto& b = j["mass_balance"];
   EXPECT_EQ(b["inserted"].get<int64_t>(), b["present"].get<int64_t>() + b["removed"].get<int64_t>());
   EXPECT_EQ(b["requested"].get<int64_t>(),
@@ -64,23 +64,12 @@ void check_balance(const fs::path& dir, bool expect_removed, bool expect_failed)
               1e-12 * b["inserted_mass_kg"].get<double>());
 }
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("mlcg_balance_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  return d;
-}
-
 }  // namespace
 
 TEST(MassBalance, HopperFillingAndDischargingBalancesAtEveryOutput) {
-  auto cs = load("quickstart/case.toml");
-  cs.insertions[0].count = 800;
-  cs.events[0].after_insertion = false;
-  cs.events[0].mean_speed_below = -1.0;
-  cs.events[0].at = 0.05;
+  auto cs = timed_hopper(800);
   cs.time.end = 0.25;
-  cs.output.snapshot_interval = 0.0;
-  const fs::path dir = fresh_dir("hopper");
+  const fs::path dir = fresh_temp_path("balance_hopper");
   LevelOptions o = quiet();
   o.out_dir = dir;
   Level level(cs, o);
@@ -92,20 +81,15 @@ TEST(MassBalance, HopperFillingAndDischargingBalancesAtEveryOutput) {
 TEST(MassBalance, ParticlesThatCannotBePlacedAreCountedAsFailed) {
   // A region that holds far fewer particles than requested: the rest must be
   // reported as failed to place, never silently dropped.
-  auto cs = load("quickstart/case.toml");
+  auto cs = timed_hopper(400, 0.1);
   auto& ins = cs.insertions[0];
   ins.region.type = config::RegionType::Box;
   ins.region.min = {-0.008, -0.008, 0.09};
   ins.region.max = {0.008, 0.008, 0.10};
   ins.follow_gap = -1.0;
   ins.rate = -1.0;  // all at once
-  ins.count = 400;
-  cs.events[0].after_insertion = false;
-  cs.events[0].mean_speed_below = -1.0;
-  cs.events[0].at = 0.1;
   cs.time.end = 0.12;
-  cs.output.snapshot_interval = 0.0;
-  const fs::path dir = fresh_dir("blocked");
+  const fs::path dir = fresh_temp_path("balance_blocked");
   LevelOptions o = quiet();
   o.out_dir = dir;
   Level level(cs, o);

@@ -5,29 +5,22 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "config/case_parser.hpp"
 #include "config/region_rules.hpp"
 #include "core/material.hpp"
+#include "files.hpp"
 #include "scene/walls_from_case.hpp"
 
 namespace {
 
 using namespace mlcg::config;
+using mlcg::test::slurp;
 namespace fs = std::filesystem;
 
 const std::string kSrc = MLCG_SOURCE_DIR;
 const std::string kQuickstart = kSrc + "/cases/quickstart/mlcg.toml";
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // `text` with its only occurrence of `from` replaced by `to`.
 std::string edited(std::string text, const std::string& from, const std::string& to) {
@@ -46,7 +39,7 @@ int line_of(const std::string& text, const std::string& marker) {
 // The quickstart hierarchy with one edit: a funnel of D0 = 24 mm at z = 0, 8 mm coarse beads,
 // a region of 2 cm cells from z = -0.02 to 0.04.
 std::string quickstart(const std::string& from = "", const std::string& to = "") {
-  const std::string text = read_file(kQuickstart);
+  const std::string text = slurp(kQuickstart);
   return from.empty() ? text : edited(text, from, to);
 }
 
@@ -256,7 +249,7 @@ TEST(RegionRules, OrificeKeyReadAndChecked) {
 }
 
 TEST(RegionRules, DiskWithAHoleIsAFloorWithAnOrifice) {
-  const std::string text = read_file(kSrc + "/cases/hoppers/flat_bin/reference.toml");
+  const std::string text = slurp(kSrc + "/cases/hoppers/flat_bin/reference.toml");
   const CaseSpec cs = parse_case(text, kSrc + "/cases/hoppers/flat_bin/reference.toml");
   const mlcg::MaterialTable mt({{"particle", 2.5e7, 0.25, 1000.0}, {"steel", 2.5e7, 0.25, 7800.0}});
   mlcg::WallSet walls = mlcg::walls_from_case(cs, mt);

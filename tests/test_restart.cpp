@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "io/h5.hpp"
+#include "files.hpp"
 #include "scene_support.hpp"
 
 using namespace mlcg;
@@ -24,21 +25,10 @@ namespace fs = std::filesystem;
 namespace {
 
 config::CaseSpec small_hopper(uint64_t checkpoint_steps) {
-  auto cs = load("quickstart/case.toml");
-  cs.insertions[0].count = 600;
-  cs.events[0].after_insertion = false;
-  cs.events[0].mean_speed_below = -1.0;
-  cs.events[0].at = 0.05;
+  auto cs = timed_hopper(600);
   cs.probes[0].window_start = 0.0;
-  cs.output.snapshot_interval = 0.0;
   cs.output.checkpoint_interval = static_cast<double>(checkpoint_steps) * cs.levels[0].dt;
   return cs;
-}
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("mlcg_restart_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  return d;
 }
 
 template <class T>
@@ -53,7 +43,7 @@ TEST(Restart, NPlusRestartPlusNEqualsTwoNBitForBit) {
   const uint64_t n = 8000;  // t = 0.096 s: the lid opened at 0.05 s; 2N = 0.19 s, particles have left
   const auto cs = small_hopper(n);
 
-  const fs::path straight = fresh_dir("straight"), split = fresh_dir("split");
+  const fs::path straight = fresh_temp_path("restart_straight"), split = fresh_temp_path("restart_split");
   {
     LevelOptions o = quiet();
     o.out_dir = straight;
@@ -125,7 +115,7 @@ std::string restart_refusal(const config::CaseSpec& cs, const fs::path& dir) {
 struct Foreign : ::testing::Test {
   void SetUp() override {
     cs = small_hopper(kShort);
-    dir = fresh_dir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir = fresh_temp_path(std::string("restart_") + ::testing::UnitTest::GetInstance()->current_test_info()->name());
     first_part(cs, dir);
   }
   void TearDown() override { fs::remove_all(dir); }
@@ -160,7 +150,7 @@ TEST_F(Foreign, EveryOtherDifferenceIsNamedTogether) {
 TEST_F(Foreign, ReorderedMaterialsContinueAsTheSameScene) {
   auto reordered = cs;
   std::swap(reordered.materials[0], reordered.materials[1]);
-  const fs::path same = fresh_dir("same_order");
+  const fs::path same = fresh_temp_path("restart_same_order");
   fs::copy(dir, same, fs::copy_options::recursive);
   for (const auto& [spec, folder] : {std::pair(&cs, same), std::pair(&reordered, dir)}) {
     LevelOptions o = quiet();

@@ -7,23 +7,24 @@
 // The run folders here are made by hand: nothing is simulated.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-#include <unistd.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
-#include "launch_support.hpp"
 #include "bus/case_hash.hpp"
+#include "files.hpp"
+#include "launch_support.hpp"
+#include "shell.hpp"
 #include "level/level.hpp"
 #include "mlcg/bus.pb.h"
 #include "scene_support.hpp"
 
 namespace fs = std::filesystem;
+using mlcg::test::slurp;
+using mlcg::test::run;
 using nlohmann::json;
 
 namespace {
@@ -31,20 +32,6 @@ namespace {
 const std::string kBin = MLCG_BIN_DIR;
 const std::string kSrc = MLCG_SOURCE_DIR;
 const std::string kCase = kSrc + "/cases/quickstart/mlcg.toml";
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return {(std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()};
-}
-
-// Runs `cmd` with stderr and stdout into `out`; returns the exit code.
-int run(const std::string& cmd, std::string& out) {
-  const fs::path log = fs::temp_directory_path() / ("mlcg_resume_out_" + std::to_string(::getpid()));
-  const int s = std::system((cmd + " > " + log.string() + " 2>&1").c_str());
-  out = slurp(log);
-  fs::remove(log);
-  return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-}
 
 void write(const fs::path& p, const std::string& text) {
   fs::create_directories(p.parent_path());
@@ -75,12 +62,9 @@ json set_entry(uint64_t k) {
 // manifest's case hash is not the case's: were the checks missing, resume would stop at the hash and
 // start nothing.
 struct RunFolder {
-  explicit RunFolder(const std::string& tag)
-      : dir(fs::temp_directory_path() / ("mlcg_resume_" + tag + "_" + std::to_string(::getpid()))) {
-    fs::remove_all(dir);
+  explicit RunFolder(const std::string& tag) : tmp("resume_" + tag), dir(tmp.path()) {
     write(dir / "launcher.json", json{{"case", kCase}}.dump());
   }
-  ~RunFolder() { fs::remove_all(dir); }
   void manifest(json m) {
     m["format"] = "mlcg-hierarchy-checkpoint";
     write(dir / "checkpoints" / "manifest.json", m.dump(2));
@@ -96,7 +80,8 @@ struct RunFolder {
     EXPECT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet" + extra, out), expect_rc) << out;
     return out;
   }
-  fs::path dir;
+  const mlcg::test::TempDir tmp;
+  const fs::path dir;
 };
 
 }  // namespace
@@ -218,8 +203,7 @@ TEST(ResumeChecks, DamagedSetWithoutAnEarlierOneSaysNoneExists) {
 }
 
 TEST(ResumeChecks, CouplerCallsAnEmptyTruncatedOrOtherCaseStateSo) {
-  const fs::path dir = fs::temp_directory_path() / ("mlcg_resume_pb_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = mlcg::test::fresh_temp_path("resume_pb");
   write(dir / "empty.pb", "");
   coupler_file(dir / "whole.pb", 3);
   const std::string whole = slurp(dir / "whole.pb");

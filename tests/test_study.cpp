@@ -13,24 +13,21 @@
 #include <map>
 #include <sstream>
 #include <utility>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <nlohmann/json.hpp>
 
+#include "files.hpp"
+#include "shell.hpp"
 #include "measure/series_stats.hpp"
 
 namespace fs = std::filesystem;
+using mlcg::test::read_json;
+using mlcg::test::slurp;
 
 namespace {
 const std::string kBin = MLCG_BIN_DIR;
 const std::string kSrc = MLCG_SOURCE_DIR;
-const fs::path kDir = fs::temp_directory_path() / ("mlcg_study_" + std::to_string(::getpid()));
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
+const fs::path kDir = mlcg::test::temp_path("study");
 
 void replace(std::string& text, const std::string& from, const std::string& to) {
   const size_t at = text.find(from);
@@ -41,9 +38,9 @@ void replace(std::string& text, const std::string& from, const std::string& to) 
 // Runs `mlcg study ARGS`; returns the exit code, the output in `out`.
 int study(const std::string& args, std::string* out = nullptr, const std::string& env = "") {
   const fs::path log = kDir / "study.out";
-  const int s = std::system((env + " " + kBin + "/mlcg study " + args + " --quiet > " + log.string() + " 2>&1").c_str());
+  const int rc = mlcg::test::run(env + " " + kBin + "/mlcg study " + args + " --quiet > " + log.string() + " 2>&1");
   if (out) *out = slurp(log);
-  return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+  return rc;
 }
 
 // study.csv as one map per row, keyed by the header (quoted cells allowed).
@@ -75,15 +72,7 @@ std::vector<std::map<std::string, std::string>> read_csv(const fs::path& p) {
   return rows;
 }
 
-nlohmann::json summary(const std::string& run) {
-  std::ifstream in(fs::path(run) / "summary.json");
-  return nlohmann::json::parse(in);
-}
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
+nlohmann::json summary(const std::string& run) { return read_json(fs::path(run) / "summary.json"); }
 
 // The half-width of a run's ⟨ṁ⟩ interval recomputed from its probe csv: the window's samples, the last
 // B x b of them cut into the batches summary.json names, t_{0.975, B-1} s_B / sqrt(B).
@@ -117,8 +106,8 @@ bool has_matplotlib() { return std::system("/usr/bin/python3 -c 'import matplotl
 // folder; ctest runs each test in its own process.
 class Study : public ::testing::Test {
  protected:
+  const mlcg::test::TempDir tmp{"study"};  // kDir, kept when the test fails
   void SetUp() override {
-    fs::remove_all(kDir);
     fs::create_directories(kDir / "cases");
     for (const std::string f : {"case.toml", "cg2.toml", "mlcg.toml", "study.toml"}) {
       std::string text = slurp(kSrc + "/cases/quickstart/" + f);
@@ -127,9 +116,6 @@ class Study : public ::testing::Test {
       if (f == "case.toml" || f == "cg2.toml") replace(text, "plus = 0.5 }", "plus = 0.2 }");
       std::ofstream(kDir / "cases" / f) << text;
     }
-  }
-  void TearDown() override {
-    if (!HasFailure()) fs::remove_all(kDir);
   }
   // The study of cases/ (its study.toml) into main/.
   int main_study(std::string* out, const std::string& env = "") {

@@ -1,6 +1,5 @@
 // STL reading and sphere–triangle-mesh contact geometry.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -13,12 +12,14 @@
 #include <string>
 #include <vector>
 
+#include "files.hpp"
 #include "walls/stl_reader.hpp"
 #include "walls/triangle_mesh.hpp"
 
 using namespace mlcg;
 namespace fs = std::filesystem;
 using Contact = TriangleMesh::Contact;
+using mlcg::test::TempDir;
 constexpr double kS = std::numbers::sqrt2 / 2;
 
 namespace {
@@ -77,18 +78,6 @@ void expect_vec(const Vec3& a, const Vec3& b, double tol) {
   EXPECT_NEAR(a.z, b.z, tol);
 }
 
-class TempDir {
- public:
-  TempDir() : dir_(fs::temp_directory_path() / ("mlcg_mesh_" + std::to_string(::getpid()))) {
-    fs::create_directories(dir_);
-  }
-  ~TempDir() { fs::remove_all(dir_); }
-  std::string file(const std::string& name) const { return (dir_ / name).string(); }
-
- private:
-  fs::path dir_;
-};
-
 std::string error_of(const std::function<void()>& f) {
   try {
     f();
@@ -108,18 +97,18 @@ bool same(const std::vector<RawTriangle>& a, const std::vector<RawTriangle>& b) 
 }  // namespace
 
 TEST(StlReader, AsciiAndBinaryGiveSameCube) {
-  TempDir tmp;
-  write_stl_ascii(tmp.file("cube.stl"), cube(), "cube");
-  write_stl_binary(tmp.file("cube_bin.stl"), cube());
-  EXPECT_TRUE(same(read_stl(tmp.file("cube.stl")), cube()));
-  EXPECT_TRUE(same(read_stl(tmp.file("cube_bin.stl")), cube()));
+  const TempDir tmp("mesh");
+  write_stl_ascii((tmp / "cube.stl").string(), cube(), "cube");
+  write_stl_binary((tmp / "cube_bin.stl").string(), cube());
+  EXPECT_TRUE(same(read_stl((tmp / "cube.stl").string()), cube()));
+  EXPECT_TRUE(same(read_stl((tmp / "cube_bin.stl").string()), cube()));
   // Checked-in fixture: CRLF line ends, exponent notation, extra blanks.
   EXPECT_TRUE(same(read_stl(std::string(MLCG_TEST_DATA) + "/mesh/cube_ascii.stl"), cube()));
 }
 
 TEST(StlReader, BinaryStartingWithSolidIsBinary) {
-  TempDir tmp;
-  const std::string f = tmp.file("solid_header.stl");
+  const TempDir tmp("mesh");
+  const std::string f = (tmp / "solid_header.stl").string();
   write_stl_binary(f, cube(), "solid cube exported by a CAD tool");
   std::ifstream in(f, std::ios::binary);
   std::string head(5, ' ');
@@ -129,9 +118,9 @@ TEST(StlReader, BinaryStartingWithSolidIsBinary) {
 }
 
 TEST(StlReader, TruncatedBinaryNamesExpectedAndFoundBytes) {
-  TempDir tmp;
+  const TempDir tmp("mesh");
   for (const std::string header : {"solid but binary", "plain binary"}) {
-    const std::string f = tmp.file("trunc.stl");
+    const std::string f = (tmp / "trunc.stl").string();
     write_stl_binary(f, cube(), header);
     fs::resize_file(f, 84 + 50 * 12 - 10);
     const std::string msg = error_of([&] { read_stl(f); });
@@ -142,8 +131,8 @@ TEST(StlReader, TruncatedBinaryNamesExpectedAndFoundBytes) {
 }
 
 TEST(StlReader, MalformedAsciiLineNamesFileLineAndExpectation) {
-  TempDir tmp;
-  const std::string f = tmp.file("bad.stl");
+  const TempDir tmp("mesh");
+  const std::string f = (tmp / "bad.stl").string();
   write_stl_ascii(f, cube(), "cube");
   // Lines: 1 solid, 2 facet, 3 outer loop, 4-6 vertex, 7 endloop, 8 endfacet, 9 facet, 10 outer loop, 11 vertex...
   std::vector<std::string> lines;
@@ -171,8 +160,8 @@ TEST(StlReader, MalformedAsciiLineNamesFileLineAndExpectation) {
 }
 
 TEST(StlReader, EmptyMeshIsError) {
-  TempDir tmp;
-  const std::string f = tmp.file("empty.stl");
+  const TempDir tmp("mesh");
+  const std::string f = (tmp / "empty.stl").string();
   {
     std::ofstream out(f);
     out << "solid nothing\nendsolid nothing\n";

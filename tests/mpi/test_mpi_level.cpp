@@ -14,7 +14,7 @@
 
 #include "parallel/exchange.hpp"
 
-#include "../scene_support.hpp"
+#include "scene_support.hpp"
 
 using namespace mlcg;
 using namespace mlcg::test;
@@ -310,12 +310,7 @@ TEST(TwoRanks, SmallDischargeDoesNotDependOnTheRankCount) {
 }
 
 TEST(TwoRanks, CheckpointWrittenOnTwoRanksContinuesBitForBitOnTwoAndRestartsOnOne) {
-  auto cs = load("quickstart/case.toml");
-  cs.insertions[0].count = 600;
-  cs.events[0].after_insertion = false;
-  cs.events[0].mean_speed_below = -1.0;
-  cs.events[0].at = 0.05;
-  cs.output.snapshot_interval = 0.0;
+  auto cs = timed_hopper(600);
   cs.levels[0].ranks = 2;
   const uint64_t n = 6000;
   cs.output.checkpoint_interval = static_cast<double>(n) * cs.levels[0].dt;

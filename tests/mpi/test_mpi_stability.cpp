@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 #include <mpi.h>
 
-#include "../stability_support.hpp"
+#include "stability_support.hpp"
 
 using namespace mlcg;
 using namespace mlcg::test;

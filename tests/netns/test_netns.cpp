@@ -23,13 +23,15 @@
 
 #include <zmq.hpp>
 
-#include "../launch_support.hpp"
-#include "../run_checks.hpp"
+#include "launch_support.hpp"
+#include "run_checks.hpp"
 
 namespace fs = std::filesystem;
 using run_checks::check_region;
 using run_checks::read_csv;
-using run_checks::read_json;
+using mlcg::test::read_json;
+using mlcg::test::run;
+using mlcg::test::slurp;
 
 namespace {
 
@@ -38,19 +40,9 @@ const std::string kSrc = MLCG_SOURCE_DIR;
 const std::string kNetns = kSrc + "/tests/netns";
 const std::string kTeardown = kNetns + "/teardown_hosts.sh";
 
-int sh(const std::string& cmd) {
-  const int s = std::system(cmd.c_str());
-  return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-}
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
 std::string skip_reason() {
   if (geteuid() != 0) return "needs root to create network namespaces (ip netns)";
-  if (sh("ip netns list > /dev/null 2>&1") != 0) return "`ip netns` is unavailable (iproute2 missing or no netns support)";
+  if (run("ip netns list > /dev/null 2>&1") != 0) return "`ip netns` is unavailable (iproute2 missing or no netns support)";
   return {};
 }
 
@@ -70,10 +62,10 @@ class AcrossHosts : public ::testing::Test {
   static void SetUpTestSuite() {
     if (!skip_reason().empty()) return;
     for (const int sig : {SIGINT, SIGTERM, SIGHUP}) signal(sig, teardown_and_exit);
-    ready_ = sh(kNetns + "/setup_hosts.sh 3") == 0;
+    ready_ = run(kNetns + "/setup_hosts.sh 3") == 0;
   }
   static void TearDownTestSuite() {
-    if (skip_reason().empty()) sh(kTeardown);
+    if (skip_reason().empty()) run(kTeardown);
   }
   void SetUp() override {
     if (const std::string why = skip_reason(); !why.empty()) GTEST_SKIP() << why;
@@ -97,12 +89,11 @@ pid_t start(const std::string& cmd) {
 // The fine level's processes (dem_level ... --level fine) of the run in `dir` in namespace `host`.
 size_t fine_ranks_in(const std::string& host, const fs::path& dir) {
   const std::string list = "/tmp/mlcg_netns_pids_" + std::to_string(getpid());
-  sh("ip netns pids " + host + " > " + list + " 2>/dev/null");
+  run("ip netns pids " + host + " > " + list + " 2>/dev/null");
   std::ifstream in(list);
   size_t n = 0;
   for (std::string pid; in >> pid;) {
-    std::ifstream c("/proc/" + pid + "/cmdline");
-    std::string cmd((std::istreambuf_iterator<char>(c)), std::istreambuf_iterator<char>());
+    std::string cmd = slurp("/proc/" + pid + "/cmdline");
     std::replace(cmd.begin(), cmd.end(), '\0', ' ');
     n += cmd.find("/dem_level ") != std::string::npos && cmd.find(" --level fine ") != std::string::npos &&
          cmd.find(dir.string()) != std::string::npos && cmd.find("mpirun") == std::string::npos;
@@ -138,7 +129,7 @@ TEST_F(AcrossHosts, TwoLevelHopperOnThreeHostsWithCurveMatchesTheLocalRun) {
   ASSERT_EQ(endpoint.rfind("tcp://10.77.0.1:", 0), 0u) << "the coupler did not bind on mlcg-h1: '" << endpoint << "'";
   {
     zmq::context_t ctx;
-    const std::string server_public = read_text(dir / "keys" / "server.pub");
+    const std::string server_public = slurp(dir / "keys" / "server.pub");
     const size_t at = server_public.find("public = ");
     ASSERT_NE(at, std::string::npos);
     std::vector<zmq::socket_t> rogues;
@@ -165,7 +156,7 @@ TEST_F(AcrossHosts, TwoLevelHopperOnThreeHostsWithCurveMatchesTheLocalRun) {
   }
   int status = 0;
   ASSERT_EQ(waitpid(mlcg, &status, 0), mlcg);
-  const std::string out = read_text(dir.string() + ".out");
+  const std::string out = slurp(dir.string() + ".out");
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << out;
   EXPECT_NE(out.find("coupler on host mlcg-h1"), std::string::npos) << out;
   EXPECT_NE(out.find("level 'coarse' on host mlcg-h2"), std::string::npos) << out;
@@ -174,7 +165,7 @@ TEST_F(AcrossHosts, TwoLevelHopperOnThreeHostsWithCurveMatchesTheLocalRun) {
   EXPECT_EQ(s["status"], "completed");
   check_region(dir, s, 0, "fine");
   // Each level really ran on its host: the coupler saw its issued key arrive from that address.
-  const std::string log = read_text(dir / "coupler.log");
+  const std::string log = slurp(dir / "coupler.log");
   EXPECT_NE(log.find("accepted the CURVE key of 'coarse' from 10.77.0.2"), std::string::npos) << log;
   EXPECT_NE(log.find("accepted the CURVE key of 'fine' from 10.77.0.3"), std::string::npos) << log;
   // The foreign clients were refused and logged with their address (the launcher's side, 10.77.0.254).
@@ -189,7 +180,7 @@ TEST_F(AcrossHosts, TwoLevelHopperOnThreeHostsWithCurveMatchesTheLocalRun) {
   }
 
   // The same case on this machine over ipc: the same numbers, face by face (a run depends on the seed only).
-  ASSERT_EQ(sh(kBin + "/mlcg run " + kase + " --out " + local.string() + " --quiet > " + local.string() +
+  ASSERT_EQ(run(kBin + "/mlcg run " + kase + " --out " + local.string() + " --quiet > " + local.string() +
                ".out 2>&1"),
             0);
   const auto a = read_csv(dir / "coupling" / "faces_region0.csv"), b = read_csv(local / "coupling" / "faces_region0.csv");
@@ -208,7 +199,7 @@ TEST_F(AcrossHosts, TwoLevelHopperOnThreeHostsWithCurveMatchesTheLocalRun) {
 TEST_F(AcrossHosts, APartitionedLevelHostIsNamedAndTheRunResumesToTheLocalResult) {
   constexpr double kTimeout = 10.0;
   const fs::path cfile = launch_support::short_quickstart(kTimeout, 1, "netns_cut");
-  const fs::path dir = launch_support::temp("netns_cut"), hostfile = dir.string() + ".hosts";
+  const fs::path dir = mlcg::test::temp_path("netns_cut"), hostfile = dir.string() + ".hosts";
   fs::remove_all(dir);
   std::ofstream(hostfile) << "rsh_agent " << kNetns << "/netns_rsh\n"
                           << "mca oob_tcp_if_include 10.77.0.0/24\n"
@@ -218,13 +209,13 @@ TEST_F(AcrossHosts, APartitionedLevelHostIsNamedAndTheRunResumesToTheLocalResult
   const pid_t mlcg = launch_support::start_mlcg(
       {"run", cfile.string(), "--hosts", hostfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
   launch_support::KillOnExit guard{mlcg};
-  ASSERT_TRUE(launch_support::wait_for_checkpoint(dir, 100, mlcg)) << read_text(dir.string() + ".out");
+  ASSERT_TRUE(launch_support::wait_for_checkpoint(dir, 100, mlcg)) << slurp(dir.string() + ".out");
   const pid_t fine = launch_support::pid_of(dir, "level 'fine'");
-  ASSERT_EQ(sh("ip link set mlcg-v3 down"), 0);
+  ASSERT_EQ(run("ip link set mlcg-v3 down"), 0);
   const auto code = launch_support::wait_exit_within(mlcg, kTimeout + 60.0);
   guard.pid = -1;
-  EXPECT_EQ(sh("ip link set mlcg-v3 up"), 0);
-  const std::string out = read_text(dir.string() + ".out");
+  EXPECT_EQ(run("ip link set mlcg-v3 up"), 0);
+  const std::string out = slurp(dir.string() + ".out");
   ASSERT_TRUE(code.has_value()) << "the launcher did not end within the timeout + 60 s:\n" << out;
   EXPECT_NE(*code, 0);
   const std::string named = "level 'fine' (pid " + std::to_string(fine) + ") went silent: ";
@@ -233,13 +224,13 @@ TEST_F(AcrossHosts, APartitionedLevelHostIsNamedAndTheRunResumesToTheLocalResult
   launch_support::expect_no_process_left(dir);
   for (const char* host : {"mlcg-h1", "mlcg-h2", "mlcg-h3"}) {
     const std::string left = "/tmp/mlcg_netns_pids_" + std::to_string(getpid());
-    sh(std::string("ip netns pids ") + host + " > " + left);
-    EXPECT_EQ(read_text(left), "") << "processes left in " << host;
+    run(std::string("ip netns pids ") + host + " > " + left);
+    EXPECT_EQ(slurp(left), "") << "processes left in " << host;
     fs::remove(left);
   }
 
-  ASSERT_EQ(sh(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
-      << read_text(dir.string() + ".out");
+  ASSERT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
+      << slurp(dir.string() + ".out");
   const fs::path local = launch_support::run_hierarchy_case(cfile.string(), "netns_cut_local");
   launch_support::expect_same_result(dir, local);
   for (const auto& d : {dir, local}) launch_support::remove_run(d);
@@ -253,7 +244,7 @@ TEST_F(AcrossHosts, APartitionedLevelHostIsNamedAndTheRunResumesToTheLocalResult
 // per-face numbers: only the rank count changes summation order (README: Parallel runs), not the hosts.
 TEST_F(AcrossHosts, AFourRankLevelOverTwoHostsMatchesTheOneHostRun) {
   const fs::path cfile = launch_support::short_quickstart(30.0, 4, "netns_span");
-  const fs::path dir = launch_support::temp("netns_span"), hostfile = dir.string() + ".hosts";
+  const fs::path dir = mlcg::test::temp_path("netns_span"), hostfile = dir.string() + ".hosts";
   fs::remove_all(dir);
   std::ofstream(hostfile) << "rsh_agent " << kNetns << "/netns_rsh\n"
                           << "mca oob_tcp_if_include 10.77.0.0/24\n"
@@ -281,7 +272,7 @@ TEST_F(AcrossHosts, AFourRankLevelOverTwoHostsMatchesTheOneHostRun) {
     else std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   guard.pid = code ? -1 : mlcg;
-  const std::string out = read_text(out_file);
+  const std::string out = slurp(out_file);
   ASSERT_TRUE(code.has_value()) << "the run did not end within 800 s:\n" << out;
   ASSERT_EQ(*code, 0) << out;
   EXPECT_EQ(most["mlcg-h1"], 0u);
@@ -293,7 +284,7 @@ TEST_F(AcrossHosts, AFourRankLevelOverTwoHostsMatchesTheOneHostRun) {
   EXPECT_EQ(s["levels"][1]["ranks"], 4);
   check_region(dir, s, 0, "fine");
   // Rank 0 of the fine level (it talks to the coupler) runs on mlcg-h2.
-  const std::string log = read_text(dir / "coupler.log");
+  const std::string log = slurp(dir / "coupler.log");
   EXPECT_NE(log.find("accepted the CURVE key of 'fine' from 10.77.0.2"), std::string::npos) << log;
   const fs::path local = launch_support::run_hierarchy_case(cfile.string(), "netns_span_local");
   launch_support::expect_same_result(dir, local);

@@ -20,16 +20,20 @@
 
 #include <nlohmann/json.hpp>
 
-#include "../launch_support.hpp"
+#include "launch_support.hpp"
 #include "io/h5.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
+using launch_support::edited_case;
 using launch_support::kBin;
 using launch_support::kSrc;
-using launch_support::slurp;
+using mlcg::test::fresh_temp_path;
+using mlcg::test::read_json;
+using mlcg::test::slurp;
+using mlcg::test::temp_path;
 
 int sh(const std::string& cmd) {
   const int s = std::system(cmd.c_str());
@@ -40,7 +44,7 @@ int sh(const std::string& cmd) {
 // A tmpfs of `kib` KiB mounted for one test, unmounted by the destructor.
 class TinyDisk {
  public:
-  explicit TinyDisk(int kib) : dir_(fs::temp_directory_path() / ("mlcg_full_" + std::to_string(::getpid()))) {
+  explicit TinyDisk(int kib) : dir_(temp_path("full")) {
     if (geteuid() != 0) {
       why_ = "needs root to mount a tmpfs";
       return;
@@ -64,21 +68,14 @@ class TinyDisk {
 
 // A case file (outside the tiny disk) from `rel` with a snapshot every `every` s.
 fs::path frequent_snapshots(const std::string& rel, const std::string& every, const std::string& tag) {
-  std::string text = slurp(kSrc + "/" + rel);
-  const std::string from = "snapshot_interval = 0.05";
-  const size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos);
-  text.replace(at, from.size(), "snapshot_interval = " + every);
-  const fs::path c = fs::temp_directory_path() / ("mlcg_full_" + tag + "_" + std::to_string(::getpid()) + ".toml");
-  std::ofstream(c) << text;
-  return c;
+  return edited_case(rel, {{"snapshot_interval = 0.05", "snapshot_interval = " + every}}, "full_" + tag);
 }
 
 // The snapshots a level listed before the disk filled all open as HDF5 files.
 void expect_listed_snapshots_intact(const fs::path& level_dir) {
   const fs::path index = level_dir / "particles" / "index.json";
   ASSERT_TRUE(fs::exists(index)) << level_dir;
-  const auto j = nlohmann::json::parse(slurp(index));
+  const auto j = read_json(index);
   size_t opened = 0;
   for (const auto& e : j["entries"]) {
     char name[64];
@@ -96,13 +93,13 @@ TEST(DiskFull, SingleLevelStopsNamingTheFileWithAFailedSummaryAndLog) {
   TinyDisk disk(2048);
   if (!disk.skip_reason().empty()) GTEST_SKIP() << disk.skip_reason();
   const fs::path c = frequent_snapshots("cases/quickstart/case.toml", "0.001", "single");
-  const fs::path run = disk.dir() / "run", err = fs::temp_directory_path() / ("mlcg_full_err_" + std::to_string(::getpid()));
+  const fs::path run = disk.dir() / "run", err = temp_path("full_err");
   const int rc = sh(kBin + "/dem_level " + c.string() + " --out " + run.string() + " --quiet 2> " + err.string());
   const std::string stderr_text = slurp(err);
   EXPECT_EQ(rc, 3) << stderr_text;  // failed, not a crash (139) nor an uncaught exception (1)
   EXPECT_NE(stderr_text.find("No space left on device"), std::string::npos) << stderr_text;
   EXPECT_NE(stderr_text.find(run.string() + "/"), std::string::npos) << "the file is not named: " << stderr_text;
-  const auto s = nlohmann::json::parse(slurp(run / "summary.json"));
+  const auto s = read_json(run / "summary.json");
   EXPECT_EQ(s["status"], "failed");
   EXPECT_NE(s["reason"].get<std::string>().find("No space left on device"), std::string::npos) << s["reason"];
   const std::string log = slurp(run / "log.txt");
@@ -116,7 +113,7 @@ namespace {
 // `mlcg run` of `rel` with a snapshot every millisecond into disk/run; its output in `text`.
 int mlcg_run_on(const TinyDisk& disk, const std::string& rel, std::string& text) {
   const fs::path c = frequent_snapshots(rel, "0.001", fs::path(rel).stem().string());
-  const fs::path out = fs::temp_directory_path() / ("mlcg_full_out_" + std::to_string(::getpid()));
+  const fs::path out = temp_path("full_out");
   const int rc = sh(kBin + "/mlcg run " + c.string() + " --out " + (disk.dir() / "run").string() + " --quiet > " +
                     out.string() + " 2>&1");
   text = slurp(out);
@@ -139,7 +136,7 @@ TEST(DiskFull, EveryLevelOfAHierarchyFailsCleanlyWithoutACrash) {
   for (const std::string level : {"coarse", "fine"}) {
     const fs::path summary = disk.dir() / "run" / "levels" / level / "summary.json";
     if (fs::exists(summary)) {
-      const std::string status = nlohmann::json::parse(slurp(summary))["status"];
+      const std::string status = read_json(summary)["status"];
       EXPECT_TRUE(status == "failed" || status == "interrupted") << level << ": " << status;
     } else {
       EXPECT_NE(text.find("dem_level: level '" + level + "' failed: "), std::string::npos) << level << ": " << text;
@@ -171,20 +168,6 @@ void fill(const fs::path& dir, uintmax_t leave) {
   }
   while (leave == 0 && f.put('x') && f.flush()) {
   }
-}
-
-// `rel` in the source tree with each (from, to) replaced, written beside the temporary files; its path.
-fs::path edited_case(const std::string& rel, const std::vector<std::pair<std::string, std::string>>& edits,
-                     const std::string& tag) {
-  std::string text = slurp(kSrc + "/" + rel);
-  for (const auto& [from, to] : edits) {
-    const size_t at = text.find(from);
-    EXPECT_NE(at, std::string::npos) << from;
-    if (at != std::string::npos) text.replace(at, from.size(), to);
-  }
-  const fs::path c = launch_support::temp("full_" + tag).string() + ".toml";
-  std::ofstream(c) << text;
-  return c;
 }
 
 void expect_no_temporary_files(const fs::path& dir) {
@@ -223,7 +206,7 @@ Filled fill_at(const TinyDisk& disk, const fs::path& dir, const std::vector<std:
     return f;
   }
   uintmax_t set = 0;
-  const auto m = nlohmann::json::parse(slurp(dir / "checkpoints" / "manifest.json"));
+  const auto m = read_json(dir / "checkpoints" / "manifest.json");
   for (const auto& e : fs::directory_iterator(dir / "checkpoints" / fs::path(m["coupler"].get<std::string>()).parent_path()))
     set += e.file_size();
   fill(disk.dir(), half_set ? set / 2 : 0);
@@ -264,8 +247,8 @@ void expect_failed_keeping_the_sets(const fs::path& dir, const Filled& f) {
 TEST(DiskFull, ConsistentSetsThatDoNotFitKeepTheLastOneAndTheRunResumesToTheSameResult) {
   TinyDisk disk(64 * 1024);
   if (!disk.skip_reason().empty()) GTEST_SKIP() << disk.skip_reason();
-  const fs::path cfile = edited_case("cases/quickstart/mlcg.toml", kCheckpointsOnly, "sets");
-  const fs::path ref = launch_support::temp("full_sets_ref"), dir = disk.dir() / "run", out = ref.string() + ".run";
+  const fs::path cfile = edited_case("cases/quickstart/mlcg.toml", kCheckpointsOnly, "full_sets");
+  const fs::path ref = temp_path("full_sets_ref"), dir = disk.dir() / "run", out = ref.string() + ".run";
   ASSERT_EQ(sh(kBin + "/mlcg run " + cfile.string() + " --out " + ref.string() + " --quiet > " + ref.string() +
                ".out 2>&1"),
             0) << slurp(ref.string() + ".out");
@@ -313,8 +296,8 @@ TEST(DiskFull, ACheckpointAndTheSummaryThatDoNotFitLeaveTheLastOnesWholeAndResta
                                       {"checkpoint_interval = 0.2", "checkpoint_interval = 0.01"},
                                       {"output_interval = 0.02", "output_interval = 10.0"},
                                       {"end = { event = \"open\", plus = 0.5 }", "end = 0.1"}},
-                                     "single");
-  const fs::path ref = launch_support::temp("full_single_ref"), dir = disk.dir() / "run", out = ref.string() + ".run";
+                                     "full_single");
+  const fs::path ref = temp_path("full_single_ref"), dir = disk.dir() / "run", out = ref.string() + ".run";
   ASSERT_EQ(sh(kBin + "/dem_level " + cfile.string() + " --out " + ref.string() + " --quiet"), 0);
   fill(disk.dir(), 1024 * 1024);  // the last MiB then fills in milliseconds, long before the run's end
   const pid_t pid = launch_support::start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, out);
@@ -339,20 +322,19 @@ TEST(DiskFull, ACheckpointAndTheSummaryThatDoNotFitLeaveTheLastOnesWholeAndResta
   auto after = fingerprint(dir);
   after.erase("log.txt");
   EXPECT_EQ(after, before) << "a file written before the disk filled changed";
-  EXPECT_EQ(nlohmann::json::parse(slurp(dir / "summary.json"))["status"], "running") << "the summary was rewritten";
+  EXPECT_EQ(read_json(dir / "summary.json")["status"], "running") << "the summary was rewritten";
   expect_no_temporary_files(dir);
 
   // The checkpoint left behind continues (on a roomy disk) to the uninterrupted run's end.
-  const fs::path copy = launch_support::temp("full_single_copy");
-  fs::remove_all(copy);
+  const fs::path copy = fresh_temp_path("full_single_copy");
   fs::copy(dir, copy, fs::copy_options::recursive);
   fs::remove(disk.dir() / "filler");
   ASSERT_EQ(sh(kBin + "/dem_level " + cfile.string() + " --out " + copy.string() + " --restart " +
                (copy / "checkpoint.h5").string() + " --quiet"),
             0);
   EXPECT_EQ(slurp(copy / "series.csv"), slurp(ref / "series.csv"));
-  EXPECT_EQ(nlohmann::json::parse(slurp(copy / "summary.json"))["mass_balance"],
-            nlohmann::json::parse(slurp(ref / "summary.json"))["mass_balance"]);
+  EXPECT_EQ(read_json(copy / "summary.json")["mass_balance"],
+            read_json(ref / "summary.json")["mass_balance"]);
   for (const auto& d : {ref, copy}) fs::remove_all(d);
   fs::remove(out);
   fs::remove(cfile);
@@ -366,8 +348,8 @@ TEST(DiskFull, ATwoRankLevelStopsOnBothRanksNamingTheFile) {
   const fs::path cfile = edited_case("cases/quickstart/case.toml",
                                      {{"snapshot_interval = 0.05", "snapshot_interval = 0.001"},
                                       {"dt = 1.2e-5", "dt = 1.2e-5\nranks = 2"}},
-                                     "ranks");
-  const fs::path dir = disk.dir() / "run", out = launch_support::temp("full_ranks").string() + ".out";
+                                     "full_ranks");
+  const fs::path dir = disk.dir() / "run", out = temp_path("full_ranks").string() + ".out";
   const int rc = sh("timeout 300 " + kBin + "/mlcg run " + cfile.string() + " --out " + dir.string() + " --quiet > " +
                     out.string() + " 2>&1");
   const std::string text = slurp(out);

@@ -16,14 +16,15 @@
 #include <regex>
 #include <thread>
 
-#include "../launch_support.hpp"
-#include "../run_checks.hpp"
+#include "launch_support.hpp"
+#include "run_checks.hpp"
 
 namespace fs = std::filesystem;
 using launch_support::kBin;
 using launch_support::kSrc;
 using launch_support::run;
-using launch_support::slurp;
+using mlcg::test::fresh_temp_path;
+using mlcg::test::slurp;
 
 namespace {
 
@@ -46,7 +47,7 @@ class Slurm : public ::testing::Test {
  protected:
   static constexpr int kNodes = 3, kCpus = 2;
   static void SetUpTestSuite() {
-    cluster_ = launch_support::temp("slurm_cluster");
+    cluster_ = mlcg::test::temp_path("slurm_cluster");
     g_cluster = cluster_.string();
     fs::remove_all(cluster_);
     if (geteuid() != 0) {
@@ -116,8 +117,7 @@ std::string Slurm::skip_, Slurm::failed_;
 // The quickstart hierarchy through sbatch: 3 tasks (2 level ranks + the coupler) on nodes of 2 CPUs, so the
 // coupler and the coarse level run on mlcs-h1 (the batch node) and the fine level on mlcs-h2.
 TEST_F(Slurm, SubmittedHierarchyRunsOnTheAllocationsNodesWithTheLocalRunsNumbers) {
-  const fs::path dir = launch_support::temp("slurm_run");
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("slurm_run");
   const std::string kase = kSrc + "/cases/quickstart/mlcg.toml";
   const int job = submit(kase, dir);
   ASSERT_GT(job, 0) << slurp(dir.string() + ".submit");
@@ -160,8 +160,7 @@ TEST_F(Slurm, SubmittedHierarchyRunsOnTheAllocationsNodesWithTheLocalRunsNumbers
 // mpirun --host mlcs-h2:2,mlcs-h3:1. Same per-face totals as the 3-rank fine level on this machine.
 TEST_F(Slurm, ALevelSpansTwoNodesOfTheAllocation) {
   const fs::path cfile = launch_support::short_quickstart(30.0, 3, "slurm_span");
-  const fs::path dir = launch_support::temp("slurm_span_run");
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path("slurm_span_run");
   const int job = submit(cfile.string(), dir);
   ASSERT_GT(job, 0) << slurp(dir.string() + ".submit");
   EXPECT_NE(slurp(dir / "mlcg_submit.sh").find("#SBATCH --ntasks=5\n"), std::string::npos);

@@ -5,32 +5,22 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "config/case_parser.hpp"
+#include "files.hpp"
 
 namespace case_parser_test {
 
 using mlcg::Vec3;
-using namespace mlcg::config;
-
-using mlcg::Vec3;
+using mlcg::test::slurp;
 using namespace mlcg::config;
 
 inline const std::string kFixture = std::string(MLCG_TEST_DATA) + "/cases/small_silo.toml";
 inline const std::string kFixtureDir = std::string(MLCG_TEST_DATA) + "/cases";
 
-inline std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 inline const std::string& base() {
-  static const std::string text = read_file(kFixture);
+  static const std::string text = slurp(kFixture);
   return text;
 }
 

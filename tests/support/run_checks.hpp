@@ -15,15 +15,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "files.hpp"
 #include "io/h5.hpp"
 
 namespace run_checks {
 namespace fs = std::filesystem;
-
-inline nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
+using mlcg::test::read_json;
 
 inline std::vector<std::vector<std::string>> read_csv(const fs::path& p) {
   std::ifstream in(p);

@@ -2,6 +2,7 @@
 // Helpers shared by the validation tests: load a case from cases/, run a level
 // in memory (no run folder) and measure simple collisions.
 #include <cmath>
+#include <cstdint>
 #include <string>
 
 #include "config/case_parser.hpp"
@@ -12,6 +13,18 @@ namespace mlcg::test {
 
 inline config::CaseSpec load(const std::string& rel) {
   return config::load_case(std::string(MLCG_SOURCE_DIR) + "/cases/" + rel);
+}
+
+// The quickstart hopper with `count` particles, its lid opened at `open_at` s whatever the bed does by then,
+// and no snapshots: a short discharge whose events fall at known times.
+inline config::CaseSpec timed_hopper(int64_t count, double open_at = 0.05) {
+  auto cs = load("quickstart/case.toml");
+  cs.insertions[0].count = count;
+  cs.events[0].after_insertion = false;
+  cs.events[0].mean_speed_below = -1.0;
+  cs.events[0].at = open_at;
+  cs.output.snapshot_interval = 0.0;
+  return cs;
 }
 
 inline LevelOptions quiet() {

@@ -1,7 +1,7 @@
 #pragma once
 // Starting the real programs from a test: mlcg and dem_level in the background, their exit, a run's
-// checkpoints, the faults a test applies. Shared by the launcher tests (test_launcher) and the fault tests
-// (test_faults, test_fault_matrix).
+// checkpoints, the faults a test applies. Shared by the launcher tests (test_launcher, test_check,
+// test_coupled_stability), the fault tests (test_faults, test_fault_matrix) and those of netns, root and slurm.
 #include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -18,31 +18,23 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
+#include "files.hpp"
 #include "run_checks.hpp"
+#include "shell.hpp"
 
 namespace launch_support {
 namespace fs = std::filesystem;
+using mlcg::test::fresh_temp_path;
+using mlcg::test::read_json;
+using mlcg::test::run;
+using mlcg::test::slurp;
+using mlcg::test::temp_path;
 
 inline const std::string kBin = MLCG_BIN_DIR;
 inline const std::string kSrc = MLCG_SOURCE_DIR;
-
-// Runs a shell command; its exit code (-1 when it did not exit).
-inline int run(const std::string& cmd) {
-  const int s = std::system(cmd.c_str());
-  return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-}
-
-inline std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  return {(std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()};
-}
-
-// A path in the temporary folder for this test process: mlcg_<tag>_<pid>.
-inline fs::path temp(const std::string& tag) {
-  return fs::temp_directory_path() / ("mlcg_" + tag + "_" + std::to_string(::getpid()));
-}
 
 // Every regular file under dir by its path, with a hash of its bytes: what "unchanged" means for a run folder.
 inline std::map<std::string, size_t> fingerprint(const fs::path& dir) {
@@ -80,15 +72,27 @@ struct ContinueOnExit {
   }
 };
 
-// The quickstart hierarchy with `[coupling] timeout` set; the case file's path.
-inline fs::path quickstart_with_timeout(double timeout, const std::string& tag) {
-  std::string text = slurp(kSrc + "/cases/quickstart/mlcg.toml");
-  const std::string from = "[coupling]                 # interval automatic: 1.92e-4 s\n";
-  EXPECT_NE(text.find(from), std::string::npos);
-  text.replace(text.find(from), from.size(), "[coupling]\ntimeout = " + std::to_string(timeout) + "\n");
-  const fs::path c = temp(tag).string() + ".toml";
+// A copy of `rel`, a case of the source tree, with each (from, to) replaced at its first occurrence (a `from`
+// it lacks fails the test), written to temp_path(tag).toml; that path.
+inline fs::path edited_case(const std::string& rel, const std::vector<std::pair<std::string, std::string>>& edits,
+                            const std::string& tag) {
+  std::string text = slurp(kSrc + "/" + rel);
+  for (const auto& [from, to] : edits) {
+    const size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+  }
+  const fs::path c = temp_path(tag).string() + ".toml";
   std::ofstream(c) << text;
   return c;
+}
+
+// The quickstart hierarchy with `[coupling] timeout` set; the case file's path.
+inline fs::path quickstart_with_timeout(double timeout, const std::string& tag) {
+  return edited_case("cases/quickstart/mlcg.toml",
+                     {{"[coupling]                 # interval automatic: 1.92e-4 s\n",
+                       "[coupling]\ntimeout = " + std::to_string(timeout) + "\n"}},
+                     tag);
 }
 
 // quickstart_with_timeout cut to 0.15 s (781 intervals, the lid still closed): faults, resumes and the reference
@@ -108,8 +112,7 @@ inline fs::path short_quickstart(double timeout, int fine_ranks, const std::stri
 // `mlcg run` of a case in the source tree (`path`) to its end, into a new temporary folder named by `tag`.
 // (An absolute `path` is taken as it is.)
 inline fs::path run_hierarchy_case(const std::string& path, const std::string& tag) {
-  const fs::path dir = temp(tag), c = fs::path(path).is_absolute() ? fs::path(path) : fs::path(kSrc) / path;
-  fs::remove_all(dir);
+  const fs::path dir = fresh_temp_path(tag), c = fs::path(path).is_absolute() ? fs::path(path) : fs::path(kSrc) / path;
   EXPECT_EQ(run(kBin + "/mlcg run " + c.string() + " --out " + dir.string() + " --quiet > " + dir.string() +
                 ".out 2>&1"),
             0)
@@ -128,8 +131,8 @@ inline void remove_run(const fs::path& dir) {
 inline void expect_same_result(const fs::path& dir, const fs::path& ref) {
   for (const char* f : {"faces_region0.csv", "region0.csv"})
     EXPECT_EQ(slurp(dir / "coupling" / f), slurp(ref / "coupling" / f)) << f << " differs from the reference run's";
-  EXPECT_EQ(run_checks::read_json(dir / "levels" / "fine" / "summary.json")["mass_balance"],
-            run_checks::read_json(ref / "levels" / "fine" / "summary.json")["mass_balance"]);
+  EXPECT_EQ(read_json(dir / "levels" / "fine" / "summary.json")["mass_balance"],
+            read_json(ref / "levels" / "fine" / "summary.json")["mass_balance"]);
 }
 
 // `mlcg resume` of the run in `dir` (output appended to dir.out) completes, checked by check_region, with the
@@ -137,7 +140,7 @@ inline void expect_same_result(const fs::path& dir, const fs::path& ref) {
 inline void expect_resume_completes_as(const fs::path& dir, const fs::path& ref) {
   ASSERT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
       << slurp(dir.string() + ".out");
-  const auto s = run_checks::read_json(dir / "summary.json");
+  const auto s = read_json(dir / "summary.json");
   EXPECT_EQ(s["status"], "completed");
   run_checks::check_region(dir, s, 0, "fine");
   expect_same_result(dir, ref);
@@ -200,7 +203,7 @@ inline std::optional<int> wait_exit_within(pid_t pid, double seconds) {
 inline bool wait_for_checkpoint(const fs::path& dir, uint64_t k, pid_t launcher) {
   for (int i = 0; i < 1200; ++i) {
     try {
-      if (run_checks::read_json(dir / "checkpoints" / "manifest.json")["interval"].get<uint64_t>() >= k) return true;
+      if (read_json(dir / "checkpoints" / "manifest.json")["interval"].get<uint64_t>() >= k) return true;
     } catch (const std::exception&) {  // not there yet
     }
     if (waitpid(launcher, nullptr, WNOHANG) == launcher) return false;
@@ -215,8 +218,7 @@ inline std::vector<std::string> processes_naming(const fs::path& dir) {
   for (const auto& e : fs::directory_iterator("/proc")) {
     const std::string pid = e.path().filename().string();
     if (pid.find_first_not_of("0123456789") != std::string::npos || std::stoi(pid) == ::getpid()) continue;
-    std::ifstream in(e.path() / "cmdline");
-    std::string cmd((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::string cmd = slurp(e.path() / "cmdline");
     std::replace(cmd.begin(), cmd.end(), '\0', ' ');
     if (cmd.find(dir.string() + "/") != std::string::npos || cmd.find(dir.string() + " ") != std::string::npos)
       out.push_back(pid + ": " + cmd);
@@ -227,7 +229,7 @@ inline std::vector<std::string> processes_naming(const fs::path& dir) {
 // Every process status.json lists (the last attempt's) is gone, and none names the run folder.
 inline void expect_no_process_left(const fs::path& dir) {
   for (const auto& p : processes_naming(dir)) ADD_FAILURE() << "still running: " << p;
-  const auto st = run_checks::read_json(dir / "status.json");
+  const auto st = read_json(dir / "status.json");
   ASSERT_FALSE(st["processes"].empty());
   for (const auto& p : st["processes"]) {
     const pid_t pid = p["pid"].get<pid_t>();
@@ -239,7 +241,7 @@ inline void expect_no_process_left(const fs::path& dir) {
 inline pid_t pid_of(const fs::path& dir, const std::string& name) {
   for (int i = 0; i < 100; ++i) {
     try {
-      const auto st = run_checks::read_json(dir / "status.json");
+      const auto st = read_json(dir / "status.json");
       for (const auto& p : st["processes"])
         if (p["name"] == name && p["state"] == "running") return p["pid"].get<pid_t>();
     } catch (const std::exception&) {
