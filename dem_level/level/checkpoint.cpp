@@ -6,6 +6,8 @@
 #include <cstring>
 #include <sstream>
 #include <tuple>
+#include <type_traits>
+#include <variant>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -89,6 +91,78 @@ void check_cuts(const io::H5Reader& r, const std::array<std::vector<double>, 3>&
         damaged(r, name + " is not an ascending list of finite numbers");
   }
 }
+// One number of the checkpoint's root attributes (or the insertion generator's state) and where it
+// lives while the level runs. `optional`: older checkpoints lack it and it reads as zero.
+struct RootScalar {
+  std::string name;
+  std::variant<uint64_t*, int64_t*, double*, std::mt19937_64*> value;
+  bool optional = false;
+};
+
+// Every root scalar of a checkpoint, in the order written: the writer and the reader both work from
+// this list, so a new one is one line here (and a member of RunState). dt and alpha are read only to
+// be compared with the case; the coupling counters are written from coupling_report().
+std::vector<RootScalar> root_scalars(RunState& s, double& dt, double& alpha, Level::CouplingReport& c) {
+  std::vector<RootScalar> f = {{"step", &s.step}, {"dt", &dt}, {"alpha", &alpha}, {"next_id", &s.next_id},
+                               {"removed", &s.removed}, {"removed_mass", &s.removed_mass}};
+  for (int e = 0; e < kExits; ++e) {  // older checkpoints do not split the removals by exit
+    const std::string exit = to_string(static_cast<Exit>(e));
+    f.push_back({"removed_" + exit, &s.removed_by[e], true});
+    f.push_back({"removed_mass_" + exit, &s.removed_mass_by[e], true});
+  }
+  f.insert(f.end(), {{"explicit_count", &s.explicit_count},
+                     {"explicit_mass", &s.explicit_mass},
+                     {"particle_steps", &s.particle_steps},
+                     {"max_particles", &s.max_particles},
+                     {"rebuilds", &s.rebuilds},
+                     {"end_time", &s.end_time},
+                     {"next_stats", &s.next_stats},
+                     {"next_snapshot", &s.next_snapshot},
+                     {"next_checkpoint", &s.next_checkpoint},
+                     {"snapshots", &s.snapshots},
+                     {"wall_seconds", &s.wall_seconds_before},
+                     // The coupling counters came with later builds.
+                     {"coupling_inserted", &c.inserted, true},
+                     {"coupling_worst_insert_overlap", &c.worst_insert_overlap, true},
+                     {"coupling_worst_insert_wall_overlap", &c.worst_insert_wall_overlap, true},
+                     {"coupling_inserted_outside_walls", &c.inserted_outside_walls, true},
+                     {"rng", &s.rng}});
+  return f;
+}
+
+// Integers keep their signedness (int64 or uint64 attributes), the generator is stored as its text.
+void write_scalar(io::H5Writer& w, const RootScalar& f) {
+  std::visit(
+      [&](auto* v) {
+        if constexpr (std::is_same_v<decltype(v), std::mt19937_64*>) {
+          std::ostringstream text;
+          text << *v;
+          w.set_attr("/", f.name, text.str());
+        } else {
+          w.set_attr("/", f.name, *v);
+        }
+      },
+      f.value);
+}
+
+void read_scalar(const io::H5Reader& r, const RootScalar& f) {
+  if (f.optional && !r.has_attr("/", f.name)) return;
+  std::visit(
+      [&](auto* v) {
+        using T = std::remove_pointer_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, std::mt19937_64>) {
+          std::istringstream text(r.attr_string("/", f.name));
+          text >> *v;
+        } else if constexpr (std::is_same_v<T, double>) {
+          *v = r.attr_double("/", f.name);
+        } else if constexpr (std::is_signed_v<T>) {
+          *v = r.attr_int64("/", f.name);
+        } else {
+          *v = r.attr_uint64("/", f.name);
+        }
+      },
+      f.value);
+}
 }  // namespace
 
 void Level::write_checkpoint(const std::filesystem::path& path) const {
@@ -125,35 +199,10 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
   w.set_attr("/", "version", kCheckpointVersion);
   w.set_attr("/", "case", cs_.path);
   w.set_attr("/", "level", lvl_.name);
-  w.set_attr("/", "step", step_);
-  w.set_attr("/", "dt", dt_);
-  w.set_attr("/", "alpha", alpha_);
-  w.set_attr("/", "next_id", next_id_);
-  w.set_attr("/", "removed", removed_);
-  w.set_attr("/", "removed_mass", removed_mass_);
-  for (int e = 0; e < kExits; ++e) {
-    w.set_attr("/", std::string("removed_") + to_string(static_cast<Exit>(e)), removed_by_[e]);
-    w.set_attr("/", std::string("removed_mass_") + to_string(static_cast<Exit>(e)), removed_mass_by_[e]);
-  }
-  w.set_attr("/", "explicit_count", explicit_count_);
-  w.set_attr("/", "explicit_mass", explicit_mass_);
-  w.set_attr("/", "particle_steps", particle_steps_);
-  w.set_attr("/", "max_particles", static_cast<uint64_t>(max_particles_));
-  w.set_attr("/", "rebuilds", rebuilds_);
-  w.set_attr("/", "end_time", end_time_);
-  w.set_attr("/", "next_stats", next_stats_);
-  w.set_attr("/", "next_snapshot", next_snapshot_);
-  w.set_attr("/", "next_checkpoint", next_checkpoint_);
-  w.set_attr("/", "snapshots", snapshots_);
-  w.set_attr("/", "wall_seconds", wall_seconds_before_);
-  w.set_attr("/", "coupling_inserted", coupling.inserted);
-  w.set_attr("/", "coupling_worst_insert_overlap", coupling.worst_insert_overlap);
-  w.set_attr("/", "coupling_worst_insert_wall_overlap", coupling.worst_insert_wall_overlap);
-  w.set_attr("/", "coupling_inserted_outside_walls", coupling.inserted_outside_walls);
-  std::ostringstream rng;
-  rng << rng_;
-  w.set_attr("/", "rng", rng.str());
-
+  RunState run = run_;
+  double dt = dt_, alpha = alpha_;
+  CouplingReport cr = coupling;
+  for (const RootScalar& f : root_scalars(run, dt, alpha, cr)) write_scalar(w, f);
 
   Particles p;
   ContactHistory hp, hw;
@@ -266,45 +315,21 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   if (r.attr_int64("/", "version") != kCheckpointVersion)
     throw std::runtime_error(fmt::format("{}: checkpoint format version {} is not supported (this build reads {})",
                                          where, r.attr_int64("/", "version"), kCheckpointVersion));
-  if (r.attr_double("/", "dt") != dt_ || r.attr_double("/", "alpha") != alpha_)
+  RunState run;
+  double dt = 0.0, alpha = 0.0;
+  CouplingReport cr;
+  for (const RootScalar& f : root_scalars(run, dt, alpha, cr)) read_scalar(r, f);
+  if (dt != dt_ || alpha != alpha_)
     throw std::runtime_error(fmt::format("{}: written with dt = {} s and alpha = {}, but the case now has dt = {} s "
                                          "and alpha = {}",
-                                         where, r.attr_double("/", "dt"), r.attr_double("/", "alpha"), dt_, alpha_));
+                                         where, dt, alpha, dt_, alpha_));
   const SceneMap map = check_scene(r);
-  step_ = r.attr_uint64("/", "step");
-  next_id_ = r.attr_int64("/", "next_id");
-  removed_ = r.attr_int64("/", "removed");
-  removed_mass_ = r.attr_double("/", "removed_mass");
-  for (int e = 0; e < kExits; ++e) {  // older checkpoints do not split the removals by exit
-    const std::string name = to_string(static_cast<Exit>(e));
-    removed_by_[e] = r.has_attr("/", "removed_" + name) ? r.attr_int64("/", "removed_" + name) : 0;
-    removed_mass_by_[e] = r.has_attr("/", "removed_" + name) ? r.attr_double("/", "removed_mass_" + name) : 0.0;
-  }
-  explicit_count_ = r.attr_int64("/", "explicit_count");
-  explicit_mass_ = r.attr_double("/", "explicit_mass");
-  particle_steps_ = r.attr_uint64("/", "particle_steps");
-  max_particles_ = r.attr_uint64("/", "max_particles");
-  rebuilds_ = r.attr_uint64("/", "rebuilds");
-  end_time_ = r.attr_double("/", "end_time");
-  next_stats_ = r.attr_double("/", "next_stats");
-  next_snapshot_ = r.attr_double("/", "next_snapshot");
-  next_checkpoint_ = r.attr_double("/", "next_checkpoint");
-  snapshots_ = r.attr_int64("/", "snapshots");
-  wall_seconds_before_ = r.attr_double("/", "wall_seconds");
-  if (r.has_attr("/", "coupling_inserted")) {  // written by this build on
-    coupling_restored_.inserted = r.attr_uint64("/", "coupling_inserted");
-    coupling_restored_.worst_insert_overlap = r.attr_double("/", "coupling_worst_insert_overlap");
-  }
-  if (r.has_attr("/", "coupling_inserted_outside_walls")) {
-    coupling_restored_.worst_insert_wall_overlap = r.attr_double("/", "coupling_worst_insert_wall_overlap");
-    coupling_restored_.inserted_outside_walls = r.attr_uint64("/", "coupling_inserted_outside_walls");
-  }
-  std::istringstream rng(r.attr_string("/", "rng"));
-  rng >> rng_;
+  run_ = run;
+  coupling_restored_ = cr;
   load_particles(r, map);
   restore_scene_state(r, map);
   rebuild_pending_ = true;
-  log_->info("restarted from {} at step {} (t = {:.6g} s) with {} particles", where, step_, time(), p_.n_local());
+  log_->info("restarted from {} at step {} (t = {:.6g} s) with {} particles", where, run_.step, time(), p_.n_local());
 }
 
 SceneMap Level::check_scene(const io::H5Reader& r) const {

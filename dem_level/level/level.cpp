@@ -91,8 +91,8 @@ void Level::insert_due(double t) {
     std::vector<Sphere> obstacles(all.size() / sizeof(Sphere));
     if (!obstacles.empty()) std::memcpy(obstacles.data(), all.data(), obstacles.size() * sizeof(Sphere));
     const auto before = in.state();
-    const auto rng_before = rng_;
-    const int64_t id_before = next_id_;
+    const auto rng_before = run_.rng;
+    const int64_t id_before = run_.next_id;
     // One batch of a large count without a rate can take minutes: say that it moves.
     double last_line = wall_seconds();
     const auto progress = [&](int64_t tried, int64_t wanted) {
@@ -102,14 +102,14 @@ void Level::insert_due(double t) {
       log_->info("insertion '{}': batch {} has tried {} of {} particles", in.params().name, before.batch + 1, tried,
                  wanted);
     };
-    const auto batch = in.place_batch(obstacles, 2.0 * r_max_, lo, hi, walls_, rng_, next_id_,
+    const auto batch = in.place_batch(obstacles, 2.0 * r_max_, lo, hi, walls_, run_.rng, run_.next_id,
                                       [this] { return stopping(); }, progress);
     // A signal reaches the ranks at different moments: all drop the batch together, and the state
     // (a checkpoint written on the way out) stays that before it.
     if (comm_.any(!batch)) {
       in.state() = before;
-      rng_ = rng_before;
-      next_id_ = id_before;
+      run_.rng = rng_before;
+      run_.next_id = id_before;
       throw StopRequested(fmt::format("interrupted by a signal during batch {} of insertion '{}' at t = {:.6g} s; "
                                       "the unfinished batch was dropped", before.batch + 1, in.params().name, t));
     }
@@ -173,7 +173,7 @@ void Level::rebuild() {
 
   if (!comm_.serial()) {
     PhaseTimer t(times_.comm);
-    if (balance_ && rebuilds_ % kSortEvery == 0 && dec_.imbalance(comm_, p_.n_local()) > 1.05)
+    if (balance_ && run_.rebuilds % kSortEvery == 0 && dec_.imbalance(comm_, p_.n_local()) > 1.05)
       dec_.balance(comm_, p_.x, p_.n_local());
     migrate(comm_, dec_, p_, pair_hist_, wall_hist_);
   }
@@ -181,7 +181,7 @@ void Level::rebuild() {
   // Removal of particles that left the domain, and a periodic spatial sort.
   const size_t n = p_.n_local();
   std::vector<int32_t> order;
-  const bool sort_now = rebuilds_ % kSortEvery == 0;
+  const bool sort_now = run_.rebuilds % kSortEvery == 0;
   if (sort_now) {
     CellBins bins;
     bins.build(p_.x, n, 2.0 * r_max_ + skin_);
@@ -221,10 +221,10 @@ void Level::rebuild() {
     comm_.sum_in_place(counts, 2 * kExits + 1);
     for (int e = 0; e < kExits; ++e) {
       const auto k = static_cast<int64_t>(std::llround(counts[2 * e]));
-      removed_by_[e] += k;
-      removed_mass_by_[e] += counts[2 * e + 1];
-      removed_ += k;
-      removed_mass_ += counts[2 * e + 1];
+      run_.removed_by[e] += k;
+      run_.removed_mass_by[e] += counts[2 * e + 1];
+      run_.removed += k;
+      run_.removed_mass += counts[2 * e + 1];
     }
     global_particles_ = static_cast<int64_t>(std::llround(counts[2 * kExits]));
     ghosts_.build(comm_, dec_, p_, ghost_cutoff_);
@@ -243,7 +243,7 @@ void Level::rebuild() {
   history_loaded_ = false;
   for (auto& pr : probes_) pr.refresh(p_, skin_);
   if (coupled_) coupling_refresh();
-  ++rebuilds_;
+  ++run_.rebuilds;
   rebuild_pending_ = false;
 }
 
@@ -252,14 +252,14 @@ std::string Level::describe_particle(size_t i) const {
   const Vec3& v = p_.v[i];
   return fmt::format("particle id {} (radius {:.4g} m) at ({:.6g}, {:.6g}, {:.6g}) m with velocity ({:.4g}, {:.4g}, "
                      "{:.4g}) m/s, step {}, t = {:.6g} s",
-                     p_.id[i], p_.radius[i], x.x, x.y, x.z, v.x, v.y, v.z, step_, time());
+                     p_.id[i], p_.radius[i], x.x, x.y, x.z, v.x, v.y, v.z, run_.step, time());
 }
 
 std::string Level::non_finite(const char* what) const {
   for (size_t i = 0; i < p_.n_local(); ++i)
     if (!finite(p_.x[i]) || !finite(p_.v[i]) || !finite(p_.omega[i]))
       return fmt::format("non-finite {} of {}", what, describe_particle(i));
-  return fmt::format("non-finite {} at step {} (sum overflow)", what, step_);
+  return fmt::format("non-finite {} at step {} (sum overflow)", what, run_.step);
 }
 
 void Level::guard(const std::string& local_problem, double badness) {
@@ -305,7 +305,7 @@ void Level::step_once() {
     rebuild();
   }
   bool stress = false;
-  for (const auto& g : grids_) stress = stress || (step_ + 1) % g.sample_every == 0;
+  for (const auto& g : grids_) stress = stress || (run_.step + 1) % g.sample_every == 0;
   if (coupled_) stress = stress || coupling_wants_stress();
   {
     PhaseTimer t(times_.force);
@@ -331,10 +331,10 @@ void Level::step_once() {
   }
   if (problem.empty() && !std::isfinite(sum)) problem = non_finite("velocity");
   guard(problem, std::isfinite(sum) ? st.max_overlap_ratio : 2.0);
-  ++step_;
+  ++run_.step;
   ++steps_this_process_;
-  particle_steps_ += static_cast<uint64_t>(global_particles_);
-  max_particles_ = std::max<size_t>(max_particles_, static_cast<size_t>(global_particles_));
+  run_.particle_steps += static_cast<uint64_t>(global_particles_);
+  run_.max_particles = std::max<size_t>(run_.max_particles, static_cast<size_t>(global_particles_));
   after_step();
   if (coupled_) coupling_end_step();
 }
@@ -351,18 +351,18 @@ MassBalance Level::mass_balance() const {
     b.failed_mass += s.failed_mass_estimate;
   }
   // Particles placed explicitly by the case count as requested and inserted.
-  b.requested += explicit_count_;
-  b.inserted += explicit_count_;
-  b.inserted_mass += explicit_mass_;
+  b.requested += run_.explicit_count;
+  b.inserted += run_.explicit_count;
+  b.inserted_mass += run_.explicit_mass;
   double present[2] = {static_cast<double>(p_.n_local()), 0.0};
   for (size_t i = 0; i < p_.n_local(); ++i) present[1] += p_.mass[i];
   comm_.sum_in_place(present, 2);
   b.present = static_cast<int64_t>(std::llround(present[0]));
   b.present_mass = present[1];
-  b.removed = removed_;
-  b.removed_mass = removed_mass_;
-  std::copy(removed_by_, removed_by_ + kExits, b.removed_by);
-  std::copy(removed_mass_by_, removed_mass_by_ + kExits, b.removed_mass_by);
+  b.removed = run_.removed;
+  b.removed_mass = run_.removed_mass;
+  std::copy(run_.removed_by, run_.removed_by + kExits, b.removed_by);
+  std::copy(run_.removed_mass_by, run_.removed_mass_by + kExits, b.removed_mass_by);
   return b;
 }
 

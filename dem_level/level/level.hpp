@@ -95,6 +95,28 @@ struct MassBalance {
   double removed_mass_by[kExits] = {0.0, 0.0, 0.0};
 };
 
+// The scalars of a level's run that a checkpoint carries besides the particles and the scene
+// (checkpoint.cpp names each once, for its writer and its reader): the clock, the ids, the mass
+// balance's counters, the output schedule and the random numbers of insertion.
+struct RunState {
+  uint64_t step = 0;
+  int64_t next_id = 0;
+  int64_t removed = 0;
+  double removed_mass = 0.0;
+  int64_t removed_by[kExits] = {0, 0, 0};
+  double removed_mass_by[kExits] = {0.0, 0.0, 0.0};
+  int64_t explicit_count = 0;       // the case's [[particles]] and [initial] particles (and the coupler's)
+  double explicit_mass = 0.0;
+  uint64_t particle_steps = 0;
+  size_t max_particles = 0;
+  uint64_t rebuilds = 0;
+  double end_time = -1.0;           // < 0: not known yet (waits for an event)
+  double next_stats = 0.0, next_snapshot = 0.0, next_checkpoint = 0.0;
+  int64_t snapshots = 0;
+  double wall_seconds_before = 0.0;  // from earlier processes of a restarted run
+  std::mt19937_64 rng;              // insertion's; seeded from the case
+};
+
 class Level {
  public:
   Level(const config::CaseSpec& cs, LevelOptions opt);
@@ -109,10 +131,10 @@ class Level {
   // State, for tests and reports.
   const Particles& particles() const { return p_; }
   Particles& particles_mut() { rebuild_pending_ = true; return p_; }
-  double time() const { return static_cast<double>(step_) * dt_; }
-  uint64_t step() const { return step_; }
+  double time() const { return static_cast<double>(run_.step) * dt_; }
+  uint64_t step() const { return run_.step; }
   double dt() const { return dt_; }
-  double end_time() const { return end_time_; }
+  double end_time() const { return run_.end_time; }
   const WallSet& walls() const { return walls_; }
   const std::vector<Vec3>& wall_forces() const { return wall_force_; }
   const ContactStats& contact_stats() const { return fctx_.stats; }
@@ -129,7 +151,7 @@ class Level {
   const StabilityReport& stability() const { return stab_; }
   const PhaseTimes& phase_times() const { return times_; }
   void reset_phase_times() { times_ = PhaseTimes{}; }
-  uint64_t rebuilds() const { return rebuilds_; }
+  uint64_t rebuilds() const { return run_.rebuilds; }
   size_t neighbor_pairs() const { return nl_.pairs(); }
   // Heap bytes held for particles, contact lists, history and bins (capacities).
   size_t memory_bytes() const;
@@ -271,25 +293,11 @@ class Level {
   double ghost_cutoff_ = 0.0;       // 2 r_max + skin
   int64_t global_particles_ = 0;    // over all ranks, as of the last rebuild
 
-  std::mt19937_64 rng_;
-  uint64_t step_ = 0;
-  int64_t next_id_ = 0;
-  int64_t removed_ = 0;
-  int64_t removed_by_[kExits] = {0, 0, 0};
-  double removed_mass_by_[kExits] = {0.0, 0.0, 0.0};
-  int64_t explicit_count_ = 0;      // the case's [[particles]] and [initial] particles (and the coupler's)
+  RunState run_;                    // what a checkpoint carries besides the particles and the scene
   int64_t case_placed_ = 0;         // the case's own: [[particles]] and [initial] on this level
-  double explicit_mass_ = 0.0;
   CouplingReport coupling_restored_;  // a coupled level's counters from its checkpoint (inserted, worst overlap)
-  double removed_mass_ = 0.0;
-  uint64_t particle_steps_ = 0;
-  size_t max_particles_ = 0;
-  uint64_t rebuilds_ = 0;
   bool rebuild_pending_ = true;
   bool history_loaded_ = false;     // contact history came from a checkpoint, not the list
-  double end_time_ = -1.0;          // < 0: not known yet (waits for an event)
-  double next_stats_ = 0.0, next_snapshot_ = 0.0, next_checkpoint_ = 0.0;
-  int64_t snapshots_ = 0;
   bool interrupted_ = false;
   int64_t steps_this_process_ = 0;
 
@@ -300,7 +308,6 @@ class Level {
   std::vector<std::string> series_rows_;
   PhaseTimes times_;
   double wall_start_ = 0.0, last_progress_ = -1e300, last_progress_t_ = 0.0;
-  double wall_seconds_before_ = 0.0;  // from earlier processes of a restarted run
   std::unique_ptr<Coupled, CoupledDeleter> coupled_;  // null unless LevelOptions::coupler is set
   std::unique_ptr<EnergyAccount> account_;            // null unless [output] energy_interval > 0
 };

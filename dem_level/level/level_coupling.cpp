@@ -81,13 +81,13 @@ void Level::CoupledDeleter::operator()(Coupled* c) const { delete c; }
 void Level::connect_coupler() {
   const double interval_case = cs_.coupling ? cs_.coupling->interval : 0.0;
   uint64_t start = 0;
-  if (step_ > 0) {  // continuing from a checkpoint: it must sit on an interval boundary
+  if (run_.step > 0) {  // continuing from a checkpoint: it must sit on an interval boundary
     const uint64_t n = interval_case > 0.0 ? whole_steps(interval_case, dt_) : 0;
-    if (n == 0 || step_ % n != 0)
+    if (n == 0 || run_.step % n != 0)
       throw std::runtime_error(fmt::format("level '{}': the checkpoint at step {} is not at the end of a coupling "
                                            "interval of the case's [coupling] ({} s = {} steps)",
-                                           lvl_.name, step_, interval_case, n));
-    start = step_ / n;
+                                           lvl_.name, run_.step, interval_case, n));
+    start = run_.step / n;
   }
   coupling::ClientOptions o;
   o.endpoint = opt_.coupler;
@@ -157,7 +157,7 @@ void Level::coupling_begin_step() {
   {
     PhaseTimer t(times_.coupling_wait);
     try {
-      cmd = c.client->commands(c.k, time(), step_);
+      cmd = c.client->commands(c.k, time(), run_.step);
     } catch (const coupling::CouplingError& e) {
       throw CouplingStop(e.what());
     }
@@ -180,7 +180,7 @@ void Level::coupling_begin_step() {
     if (c.grids[l].role() == coupling::Role::Fine && of[l] && of[l]->insert_size() > 0) {
       // Every rank reads the same list: the ids agree, each rank keeps what it owns.
       std::vector<ParticleInit> list;
-      const int64_t first_id = next_id_;
+      const int64_t first_id = run_.next_id;
       try {
         list = coupling::GridLink::parse_inserts(*of[l], c.material, c.density, first_id);
       } catch (const std::invalid_argument& e) {
@@ -198,11 +198,11 @@ void Level::coupling_begin_step() {
       c.inserted += count;
       c.worst_overlap = std::max(c.worst_overlap, insert_overlap(p_, first_new, 2.0 * std::max(r_max_, r_big)));
       check_inserted_walls(c, c.grids[l].geometry(), first_new);
-      // Not `+= count`: add_particle already raised next_id_, on the owning rank only. The ranks must agree on
+      // Not `+= count`: add_particle already raised run_.next_id, on the owning rank only. The ranks must agree on
       // ids (contact histories are keyed by them).
-      next_id_ = first_id + static_cast<int64_t>(count);
-      explicit_count_ += static_cast<int64_t>(count);  // requested and inserted, like the case's own particles
-      explicit_mass_ += mass;
+      run_.next_id = first_id + static_cast<int64_t>(count);
+      run_.explicit_count += static_cast<int64_t>(count);  // requested and inserted, like the case's own particles
+      run_.explicit_mass += mass;
       rebuild_pending_ = true;
       if (r_big > r_max_) {  // the same on every rank
         log_->warn("coupling: inserted radius {:.4g} m exceeds the largest radius {:.4g} m the level was set up for",
@@ -308,7 +308,7 @@ void Level::coupling_end_step() {
     for (auto& g : c.grids) g.sample(p_, stress6_, comm_);
   }
   if (c.done < c.steps) {
-    c.client->keepalive(time(), step_);
+    c.client->keepalive(time(), run_.step);
     return;
   }
   bus::IntervalStats s;

@@ -58,12 +58,12 @@ RunStatus Level::run() {
   const double half = 0.5 * dt_;
   if (opt_.restart.empty()) {
     const auto& o = cs_.output;
-    next_stats_ = o.stats_interval;
-    next_snapshot_ = o.snapshot_interval;
-    next_checkpoint_ = o.checkpoint_interval;
+    run_.next_stats = o.stats_interval;
+    run_.next_snapshot = o.snapshot_interval;
+    run_.next_checkpoint = o.checkpoint_interval;
     series_rows_.push_back(series_row());
   }
-  if (end_time_ >= 0.0) log_->info("running to t = {:.4g} s ({} steps)", end_time_, std::llround(end_time_ / dt_));
+  if (run_.end_time >= 0.0) log_->info("running to t = {:.4g} s ({} steps)", run_.end_time, std::llround(run_.end_time / dt_));
   else log_->info("running until event '{}' + {} s", cs_.time.end_event, cs_.time.end_plus);
 
   RunStatus status = RunStatus::Completed;
@@ -73,7 +73,7 @@ RunStatus Level::run() {
     while (true) {
       // A coupled level ends with an interval, the same one on every level (whatever its dt): one cut short has
       // received and inserted the coupler's particles but never reports them, and the coupler would take them back.
-      if (end_time_ >= 0.0 && (coupled_ ? coupling_reached(end_time_) : time() >= end_time_ - half)) break;
+      if (run_.end_time >= 0.0 && (coupled_ ? coupling_reached(run_.end_time) : time() >= run_.end_time - half)) break;
       if (comm_.any(stopping())) {
         status = RunStatus::Interrupted;
         reason = "interrupted by a signal";
@@ -150,7 +150,7 @@ void Level::finish_run(RunStatus status, const std::string& reason, bool output_
                      : ("; and " + output_error_).c_str());
   const auto b = mass_balance();
   log_->info("{}: t = {:.4f} s, {} steps, {} particles present, {} removed, {} failed to place", to_string(status),
-             time(), step_, b.present, b.removed, b.failed);
+             time(), run_.step, b.present, b.removed, b.failed);
   for (const auto& pr : probes_) {
     const auto w = pr.window_stats();
     if (w.samples > 0)
@@ -178,8 +178,8 @@ void Level::sync_output() const {
 void Level::sample_energy() {
   // The account measures between steps with current lists; a pending rebuild (a test moved
   // particles) would change the run, so the sample waits a step.
-  if (!account_ || !account_->due(step_) || comm_.any(rebuild_pending_)) return;
-  account_->sample(step_, time(), energy(), comm_);
+  if (!account_ || !account_->due(run_.step) || comm_.any(rebuild_pending_)) return;
+  account_->sample(run_.step, time(), energy(), comm_);
 }
 
 void Level::after_step() {
@@ -195,7 +195,7 @@ void Level::after_step() {
     for (auto& pr : probes_)
       if (pr.sample_due(t)) pr.close_sample(t, comm_.sum(pr.open_mass()));
     for (auto& g : grids_) {
-      if (step_ % g.sample_every == 0) {
+      if (run_.step % g.sample_every == 0) {
         g.grid.local_sample(p_, stress6_, g.sums, g.maxs);
         comm_.sum_in_place(g.sums.data(), g.sums.size());
         comm_.max_in_place(g.maxs.data(), g.maxs.size());
@@ -214,17 +214,17 @@ void Level::after_step() {
   PhaseTimer output(times_.output);
   if (grid_output) sync_output();
   const auto& o = cs_.output;
-  if (o.stats_interval > 0.0 && t >= next_stats_ - half) {
+  if (o.stats_interval > 0.0 && t >= run_.next_stats - half) {
     series_rows_.push_back(series_row());
-    next_stats_ += o.stats_interval;
+    run_.next_stats += o.stats_interval;
   }
-  if (o.snapshot_interval > 0.0 && t >= next_snapshot_ - half) {
+  if (o.snapshot_interval > 0.0 && t >= run_.next_snapshot - half) {
     write_snapshot();
-    ++snapshots_;
-    next_snapshot_ += o.snapshot_interval;
+    ++run_.snapshots;
+    run_.next_snapshot += o.snapshot_interval;
   }
-  if (o.checkpoint_interval > 0.0 && t >= next_checkpoint_ - half) {
-    next_checkpoint_ += o.checkpoint_interval;
+  if (o.checkpoint_interval > 0.0 && t >= run_.next_checkpoint - half) {
+    run_.next_checkpoint += o.checkpoint_interval;
     if (!opt_.out_dir.empty()) {
       write_checkpoint(opt_.out_dir / "checkpoint.h5");
       write_outputs(false);
@@ -241,7 +241,7 @@ std::string Level::series_row() const {
   int64_t contacts[2] = {fctx_.stats.pair_contacts, fctx_.stats.wall_contacts};
   comm_.sum_in_place(contacts, 2);
   return fmt::format("{:.6f},{},{:.9g},{},{},{},{},{},{},{},{}", time(), b.present, kinetic_energy(), contacts[0],
-                     contacts[1], b.requested, b.inserted, b.removed, b.failed, b.pending, rebuilds_);
+                     contacts[1], b.requested, b.inserted, b.removed, b.failed, b.pending, run_.rebuilds);
 }
 
 void Level::write_snapshot() {
@@ -265,7 +265,7 @@ void Level::write_snapshot_file(const std::vector<char>& all) {
     x.push_back(rd.get<Vec3>()); v.push_back(rd.get<Vec3>()); om.push_back(rd.get<Vec3>());
     r.push_back(rd.get<double>()); id.push_back(rd.get<int64_t>());
   }
-  snaps_->write(time(), step_, x.size(), x.data(), v.data(), om.data(), r.data(), id.data());
+  snaps_->write(time(), run_.step, x.size(), x.data(), v.data(), om.data(), r.data(), id.data());
 }
 
 void Level::write_outputs(bool final) {
@@ -311,7 +311,7 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
                                const double* sums, const CouplingReport& cr) const {
   using nlohmann::json;
   const double nr = static_cast<double>(comm_.size());
-  const double wall = wall_seconds_before_ + (wall_seconds() - wall_start_);
+  const double wall = run_.wall_seconds_before + (wall_seconds() - wall_start_);
   json j;
   j["status"] = status;
   j["reason"] = reason;
@@ -319,18 +319,18 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
   j["title"] = cs_.title;
   j["wall_seconds"] = wall;
   j["simulated_time"] = time();
-  j["steps"] = step_;
-  j["end_time"] = end_time_;
+  j["steps"] = run_.step;
+  j["end_time"] = run_.end_time;
   json lv;
   lv["name"] = lvl_.name;
   lv["alpha"] = alpha_;
   lv["dt"] = dt_;
   lv["ranks"] = lvl_.ranks;
-  lv["particles_max"] = max_particles_;
+  lv["particles_max"] = run_.max_particles;
   lv["particles_final"] = b.present;
-  lv["particle_steps"] = particle_steps_;
-  lv["particle_steps_per_second"] = wall > 0.0 ? static_cast<double>(particle_steps_) / wall : 0.0;
-  lv["neighbour_rebuilds"] = rebuilds_;
+  lv["particle_steps"] = run_.particle_steps;
+  lv["particle_steps_per_second"] = wall > 0.0 ? static_cast<double>(run_.particle_steps) / wall : 0.0;
+  lv["neighbour_rebuilds"] = run_.rebuilds;
   lv["skin"] = skin_;
   lv["rayleigh_time"] = stab_.rayleigh_time;
   lv["hertz_contact_time"] = stab_.contact_time;
@@ -343,7 +343,7 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
       {"seconds", {{"integrate", sums[0] / nr}, {"neighbor", sums[1] / nr}, {"force", sums[2] / nr},
                    {"comm", sums[3] / nr}, {"measure", sums[4] / nr}, {"insert", sums[5] / nr},
                    {"output", sums[6] / nr}, {"coupling", sums[10] / nr}, {"coupling_wait", sums[11] / nr}}},
-      {"rebuilds_per_1000_steps", step_ > 0 ? 1000.0 * static_cast<double>(rebuilds_) / static_cast<double>(step_) : 0.0},
+      {"rebuilds_per_1000_steps", run_.step > 0 ? 1000.0 * static_cast<double>(run_.rebuilds) / static_cast<double>(run_.step) : 0.0},
       {"neighbour_pairs_per_particle", sums[7] / n_now},
       {"bytes_per_particle", sums[8] / n_now},
       {"ranks", comm_.size()}};
@@ -394,19 +394,19 @@ void Level::progress(bool force) {
   if (!force && now - last_progress_ < cs_.time.progress_interval) return;
   const double wall = now - wall_start_;
   const double t = time();
-  const double rate = wall > 0.0 ? static_cast<double>(particle_steps_) / (wall + wall_seconds_before_) : 0.0;
+  const double rate = wall > 0.0 ? static_cast<double>(run_.particle_steps) / (wall + run_.wall_seconds_before) : 0.0;
   // ETA from the simulated-time speed of the last interval.
   std::string eta = "ETA ?";
-  if (end_time_ >= 0.0 && t >= end_time_ - 0.5 * dt_) {
+  if (run_.end_time >= 0.0 && t >= run_.end_time - 0.5 * dt_) {
     eta = "done";
-  } else if (end_time_ >= 0.0 && last_progress_ > -1e299 && now > last_progress_ && t > last_progress_t_) {
+  } else if (run_.end_time >= 0.0 && last_progress_ > -1e299 && now > last_progress_ && t > last_progress_t_) {
     const double speed = (t - last_progress_t_) / (now - last_progress_);
-    eta = "ETA " + human_duration((end_time_ - t) / speed);
-  } else if (end_time_ < 0.0) {
+    eta = "ETA " + human_duration((run_.end_time - t) / speed);
+  } else if (run_.end_time < 0.0) {
     eta = fmt::format("end: event '{}' + {} s", cs_.time.end_event, cs_.time.end_plus);
   }
   log_->info("t = {:.4f} s{} | {} particles | {:.3g} particle-steps/s | {}", t,
-             end_time_ >= 0.0 ? fmt::format(" / {:.4f} s ({:.0f} %)", end_time_, 100.0 * t / end_time_) : "",
+             run_.end_time >= 0.0 ? fmt::format(" / {:.4f} s ({:.0f} %)", run_.end_time, 100.0 * t / run_.end_time) : "",
              global_particles_, rate, eta);
   last_progress_t_ = t;
   last_progress_ = now;

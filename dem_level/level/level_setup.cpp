@@ -90,7 +90,7 @@ void Level::setup() {
   gravity_ = cs_.gravity;
   dom_lo_ = cs_.domain.min;
   dom_hi_ = cs_.domain.max;
-  rng_.seed(cs_.seed);
+  run_.rng.seed(cs_.seed);
 
   mt_ = materials_of_case(cs_);
 
@@ -127,7 +127,7 @@ void Level::setup() {
   std::vector<PlacedParticle> placed;  // for the initial-overlap check
   for (const auto& ps : cs_.particles) {
     ParticleInit pi;
-    pi.id = next_id_++;
+    pi.id = run_.next_id++;
     pi.material = mt_.index_of(ps.material);
     pi.radius = ps.radius * alpha_;
     pi.density = mt_.material(pi.material).density;
@@ -137,12 +137,12 @@ void Level::setup() {
     explicit_kinds.push_back({pi.material, pi.radius, pi.radius, norm(pi.v)});
     placed.push_back({{pi.x, pi.radius}, pi.material, pi.id});
     if (!fills_scene) continue;
-    ++explicit_count_;
-    explicit_mass_ += sphere_mass(pi.density, pi.radius);
+    ++run_.explicit_count;
+    run_.explicit_mass += sphere_mass(pi.density, pi.radius);
     if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
   if (cs_.initial) load_initial_state(explicit_kinds, placed, fills_scene && opt_.restart.empty());
-  case_placed_ = explicit_count_;  // before a checkpoint or the coupler adds to the count
+  case_placed_ = run_.explicit_count;  // before a checkpoint or the coupler adds to the count
 
   // Stability guard, over every kind of particle this level will hold.
   std::vector<ParticleKind> kinds;
@@ -335,9 +335,9 @@ void Level::load_initial_state(std::vector<ParticleKind>& kinds, std::vector<Pla
   const auto list = read_initial_particles(in, cs_.domain, mat, mt_.material(mat).density);
   for (const ParticleInit& pi : list) {
     placed.push_back({{pi.x, pi.radius}, mat, pi.id});
-    ++explicit_count_;
-    explicit_mass_ += sphere_mass(pi.density, pi.radius);
-    next_id_ = std::max(next_id_, pi.id + 1);
+    ++run_.explicit_count;
+    run_.explicit_mass += sphere_mass(pi.density, pi.radius);
+    run_.next_id = std::max(run_.next_id, pi.id + 1);
     if (add && dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
   if (!list.empty()) kinds.push_back(initial_kind(list, mat));  // as mlcg check previews it
@@ -351,18 +351,18 @@ void Level::add_particle(const ParticleInit& pi) {
     wall_hist_.append(nullptr, nullptr, 0);
   }
   p_.f.back() = p_.mass.back() * gravity_;
-  next_id_ = std::max(next_id_, pi.id + 1);
+  run_.next_id = std::max(run_.next_id, pi.id + 1);
   rebuild_pending_ = true;
   if (account_) account_->carried_in(p_, p_.n_local() - 1);
 }
 
 void Level::resolve_end_time() {
   if (cs_.time.end >= 0.0) {
-    end_time_ = cs_.time.end;
+    run_.end_time = cs_.time.end;
     return;
   }
   for (size_t e = 0; e < cs_.events.size(); ++e)
-    if (cs_.events[e].name == cs_.time.end_event && events_[e].fired) end_time_ = events_[e].fired_at + cs_.time.end_plus;
+    if (cs_.events[e].name == cs_.time.end_event && events_[e].fired) run_.end_time = events_[e].fired_at + cs_.time.end_plus;
 }
 
 }  // namespace mlcg
