@@ -193,10 +193,21 @@ class Level {
     std::vector<double> sums, maxs;  // scratch for one sample
   };
 
+  // setup() in steps (level_setup.cpp), in the order it runs them.
   void setup();
+  void setup_logging();
+  void select_level();              // the [[levels]] entry: dt, alpha; gravity, domain, seed
+  void setup_contact();             // materials and the force routine of the contact model
+  void setup_decomposition();
   void setup_walls();
   void setup_insertions();
+  void place_case_particles(bool fills_scene, std::vector<ParticleKind>& kinds, std::vector<PlacedParticle>& placed);
+  double setup_stability(const std::vector<ParticleKind>& explicit_kinds,
+                         const std::vector<PlacedParticle>& placed);  // returns the largest radius
+  void setup_skin(double r_max);
   void setup_measurements();
+  void start_state();               // run folder; checkpoint, coupler or the forces at t = 0
+  void initial_forces();
   void load_checkpoint(const std::filesystem::path& path);
   // Parts of load_checkpoint (checkpoint.cpp): the checkpoint's scene against the case (refused when
   // it is another), the particles, and the state of walls, insertions, events, probes, grids, series.

@@ -55,7 +55,30 @@ Level::Level(const config::CaseSpec& cs, LevelOptions opt)
 Level::~Level() = default;
 
 void Level::setup() {
-  // Logging: console (unless quiet) and, with a run folder, its log file.
+  setup_logging();
+  select_level();
+  setup_contact();
+  setup_decomposition();
+  setup_walls();
+  setup_insertions();
+  // In a hierarchy the case's particles fill the coarsest level only; finer
+  // levels get theirs from the coupler (their kinds still set the guards).
+  bool fills_scene = true;
+  for (const auto& l : cs_.levels) fills_scene = fills_scene && (!cs_.coupling || l.alpha <= alpha_);
+  std::vector<ParticleKind> explicit_kinds;
+  std::vector<PlacedParticle> placed;  // for the initial-overlap check
+  place_case_particles(fills_scene, explicit_kinds, placed);
+  const double r_max = setup_stability(explicit_kinds, placed);
+  if (!fills_scene) ins_.clear();
+  setup_skin(r_max);
+  setup_measurements();
+  events_.assign(cs_.events.size(), EventState{});
+  resolve_end_time();
+  start_state();
+}
+
+void Level::setup_logging() {
+  // Console (unless quiet) and, with a run folder, its log file.
   // Rank 0 speaks for the level; other ranks report only their errors.
   std::vector<spdlog::sink_ptr> sinks;
   if (comm_.rank() == 0) {
@@ -71,7 +94,10 @@ void Level::setup() {
   log_->set_pattern("[%H:%M:%S] %v");
   log_->flush_on(spdlog::level::info);  // `tail -f log.txt` shows each line as it happens (they are seconds apart)
   if (comm_.rank() != 0) log_->set_level(spdlog::level::err);
+}
 
+void Level::select_level() {
+  // The [[levels]] entry this process runs, and what the time loop takes from the case as plain numbers.
   lvl_ = cs_.levels.front();
   if (!opt_.level.empty()) {
     const auto it = std::find_if(cs_.levels.begin(), cs_.levels.end(),
@@ -91,9 +117,11 @@ void Level::setup() {
   dom_lo_ = cs_.domain.min;
   dom_hi_ = cs_.domain.max;
   run_.rng.seed(cs_.seed);
+}
 
+void Level::setup_contact() {
+  // The materials, and the force routine compiled for the case's contact model.
   mt_ = materials_of_case(cs_);
-
   choice_.tangential_history = cs_.contact.tangential == "history";
   choice_.rolling_cdt = cs_.contact.rolling == "cdt";
   choice_.clamp_normal = cs_.contact.clamp_normal;
@@ -102,7 +130,9 @@ void Level::setup() {
   log_->info("level '{}': alpha = {}, dt = {:.4g} s, contact model hertz + tangential {} + rolling {}{}", lvl_.name,
              alpha_, dt_, cs_.contact.tangential, cs_.contact.rolling,
              choice_.clamp_normal ? " (normal force clamped)" : "");
+}
 
+void Level::setup_decomposition() {
   // The process grid; the boundaries start uniform and are balanced at the first rebuild.
   std::array<int, 3> grid = Decomposition::default_grid(comm_.size(), dom_lo_, dom_hi_, gravity_);
   if (!lvl_.processors.empty()) grid = {lvl_.processors[0], lvl_.processors[1], lvl_.processors[2]};
@@ -116,15 +146,12 @@ void Level::setup() {
   if (!comm_.serial())
     log_->info("MPI: {} ranks as a {} x {} x {} grid{}", comm_.size(), grid[0], grid[1], grid[2],
                balance_ ? ", boundaries balanced by particle count" : "");
+}
 
-  setup_walls();
-  setup_insertions();
-  // In a hierarchy the case's particles fill the coarsest level only; finer
-  // levels get theirs from the coupler (their kinds still set the guards).
-  bool fills_scene = true;
-  for (const auto& l : cs_.levels) fills_scene = fills_scene && (!cs_.coupling || l.alpha <= alpha_);
-  std::vector<ParticleKind> explicit_kinds;
-  std::vector<PlacedParticle> placed;  // for the initial-overlap check
+void Level::place_case_particles(bool fills_scene, std::vector<ParticleKind>& kinds,
+                                 std::vector<PlacedParticle>& placed) {
+  // The case's [[particles]] and [initial] state: added only when this level fills the scene, but
+  // always listed (kinds for the guard, positions for the initial-overlap check).
   for (const auto& ps : cs_.particles) {
     ParticleInit pi;
     pi.id = run_.next_id++;
@@ -134,17 +161,20 @@ void Level::setup() {
     pi.x = ps.position;
     pi.v = ps.velocity;
     pi.omega = ps.omega;
-    explicit_kinds.push_back({pi.material, pi.radius, pi.radius, norm(pi.v)});
+    kinds.push_back({pi.material, pi.radius, pi.radius, norm(pi.v)});
     placed.push_back({{pi.x, pi.radius}, pi.material, pi.id});
     if (!fills_scene) continue;
     ++run_.explicit_count;
     run_.explicit_mass += sphere_mass(pi.density, pi.radius);
     if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
-  if (cs_.initial) load_initial_state(explicit_kinds, placed, fills_scene && opt_.restart.empty());
+  if (cs_.initial) load_initial_state(kinds, placed, fills_scene && opt_.restart.empty());
   case_placed_ = run_.explicit_count;  // before a checkpoint or the coupler adds to the count
+}
 
-  // Stability guard, over every kind of particle this level will hold.
+double Level::setup_stability(const std::vector<ParticleKind>& explicit_kinds,
+                              const std::vector<PlacedParticle>& placed) {
+  // The guard, over every kind of particle this level will hold; returns the largest radius.
   std::vector<ParticleKind> kinds;
   double r_max = 0.0;
   for (const auto& in : cs_.insertions) {  // the kinds `mlcg check` previews too (stability_preview.hpp)
@@ -162,19 +192,19 @@ void Level::setup() {
   const InitialOverlap overlaps = opt_.restart.empty() ? initial_overlaps(placed, mt_) : InitialOverlap{};
   stab_ = check_stability(cs_, lvl_, mt_, kinds, wall_mats, height, overlaps);
   for (const auto& l : stab_.lines) log_->info("{}", l);
+  return r_max;
+}
 
-  if (!fills_scene) ins_.clear();
-
+void Level::setup_skin(double r_max) {
   skin_ = lvl_.skin > 0.0 ? lvl_.skin : 0.5 * r_max;
   nl_.set_skin(skin_);
   r_max_ = r_max;
   ghost_cutoff_ = 2.0 * r_max_ + skin_;
   log_->info("neighbour search: skin {:.4g} m, rebuild when a particle moved {:.4g} m", skin_, 0.5 * skin_);
+}
 
-  setup_measurements();
-  events_.assign(cs_.events.size(), EventState{});
-  resolve_end_time();
-
+void Level::start_state() {
+  // The run folder, then the state at t0: a checkpoint's, the coupler's, or the case's with its forces.
   if (!opt_.out_dir.empty() && comm_.rank() == 0) {
     std::filesystem::copy_file(cs_.path, opt_.out_dir / "case.toml",
                                std::filesystem::copy_options::overwrite_existing);
@@ -183,21 +213,22 @@ void Level::setup() {
   if (!opt_.restart.empty()) load_checkpoint(opt_.restart);
   if (!opt_.out_dir.empty() && comm_.rank() == 0)
     snaps_ = std::make_unique<io::SnapshotSeries>(opt_.out_dir, "particles", !opt_.restart.empty());
-  if (!opt_.coupler.empty()) {
-    connect_coupler();
-  } else if (opt_.restart.empty()) {
-    // Velocity Verlet's first half kick needs the forces at t = 0 (a checkpoint stores them). Without
-    // them particles placed touching start half a kick short: a pack placed with overlaps gained
-    // (omega dt / 2)^2 of its stored energy, 2 % at 10 steps per contact (cases/stability/overlap_pack.toml).
-    // The evaluation leaves the tangential history as it was: step 1 integrates it.
-    rebuild();
-    const std::vector<Vec3> pair_hist = nl_.hist, wall_hist = walls_.hist;
-    clear_ghost_forces(p_);
-    forces_(fctx_, false);
-    nl_.hist = pair_hist;
-    walls_.hist = wall_hist;
-    refuse_placed_overlap();
-  }
+  if (!opt_.coupler.empty()) connect_coupler();
+  else if (opt_.restart.empty()) initial_forces();
+}
+
+void Level::initial_forces() {
+  // Velocity Verlet's first half kick needs the forces at t = 0 (a checkpoint stores them). Without
+  // them particles placed touching start half a kick short: a pack placed with overlaps gained
+  // (omega dt / 2)^2 of its stored energy, 2 % at 10 steps per contact (cases/stability/overlap_pack.toml).
+  // The evaluation leaves the tangential history as it was: step 1 integrates it.
+  rebuild();
+  const std::vector<Vec3> pair_hist = nl_.hist, wall_hist = walls_.hist;
+  clear_ghost_forces(p_);
+  forces_(fctx_, false);
+  nl_.hist = pair_hist;
+  walls_.hist = wall_hist;
+  refuse_placed_overlap();
 }
 
 void Level::refuse_placed_overlap() {
