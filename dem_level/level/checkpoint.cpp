@@ -168,21 +168,22 @@ void read_scalar(const io::H5Reader& r, const RootScalar& f) {
 void Level::write_checkpoint(const std::filesystem::path& path) const {
   // Particles and their contact history, gathered from all ranks in rank order.
   ContactHistory ph, wh;
-  if (keep_history_ && history_loaded_) {  // restarted, no list built yet: the history is still per particle
-    ph = pair_hist_;
-    wh = wall_hist_;
-  } else if (keep_history_) {
-    nl_.save_history(p_, ph);
-    walls_.save_history(p_, wh);
+  // Restarted, no list built yet: the history is still per particle.
+  if (stepper_.keep_history && state_.history_loaded) {
+    ph = state_.pair_hist;
+    wh = state_.wall_hist;
+  } else if (stepper_.keep_history) {
+    state_.nl.save_history(state_.p, ph);
+    state_.walls.save_history(state_.p, wh);
   } else {
-    ph.clear(p_.size());
-    wh.clear(p_.size());
+    ph.clear(state_.p.size());
+    wh.clear(state_.p.size());
   }
   std::vector<char> buf;
   ByteWriter bw(buf);
-  for (size_t i = 0; i < p_.n_local(); ++i) pack_particle(bw, p_, i, ph, wh);
+  for (size_t i = 0; i < state_.p.n_local(); ++i) pack_particle(bw, state_.p, i, ph, wh);
   std::vector<double> open_mass;  // each rank's part of each probe's open sample
-  for (const auto& pr : probes_) open_mass.push_back(pr.open_mass());
+  for (const auto& pr : scene_.probes) open_mass.push_back(pr.open_mass());
   std::vector<char> om(reinterpret_cast<const char*>(open_mass.data()),
                        reinterpret_cast<const char*>(open_mass.data() + open_mass.size()));
   const auto all = comm_.gather0(buf);
@@ -200,7 +201,7 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
   w.set_attr("/", "case", cs_.path);
   w.set_attr("/", "level", lvl_.name);
   RunState run = run_;
-  double dt = dt_, alpha = alpha_;
+  double dt = physics_.dt, alpha = physics_.alpha;
   CouplingReport cr = coupling;
   for (const RootScalar& f : root_scalars(run, dt, alpha, cr)) write_scalar(w, f);
 
@@ -225,11 +226,11 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
   write_history(w, "history/walls", hw);
 
   // The decomposition, so that a restart on the same grid keeps every particle on its rank.
-  const auto& grid = dec_.grid();
+  const auto& grid = stepper_.dec.grid();
   w.write("decomposition/grid", std::vector<int32_t>{grid[0], grid[1], grid[2]});
-  w.write("decomposition/cuts_x", dec_.cuts()[0]);
-  w.write("decomposition/cuts_y", dec_.cuts()[1]);
-  w.write("decomposition/cuts_z", dec_.cuts()[2]);
+  w.write("decomposition/cuts_x", stepper_.dec.cuts()[0]);
+  w.write("decomposition/cuts_y", stepper_.dec.cuts()[1]);
+  w.write("decomposition/cuts_z", stepper_.dec.cuts()[2]);
   std::vector<double> opens(all_open.size() / sizeof(double));
   if (!opens.empty()) std::memcpy(opens.data(), all_open.data(), all_open.size());
   w.write("probes/open_mass_per_rank", opens);
@@ -240,11 +241,11 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
 
 void Level::write_scene_state(io::H5Writer& w) const {
   std::vector<uint8_t> active;
-  for (size_t k = 0; k < walls_.walls(); ++k) active.push_back(walls_.active(k) ? 1 : 0);
+  for (size_t k = 0; k < state_.walls.walls(); ++k) active.push_back(state_.walls.active(k) ? 1 : 0);
   w.write("walls/active", active);
 
-  for (size_t k = 0; k < ins_.size(); ++k) {
-    const auto& s = ins_[k].state();
+  for (size_t k = 0; k < scene_.ins.size(); ++k) {
+    const auto& s = scene_.ins[k].state();
     const std::string g = fmt::format("insertion/{}", k);
     w.create_group(g);
     w.set_attr(g, "requested", s.requested);
@@ -257,8 +258,8 @@ void Level::write_scene_state(io::H5Writer& w) const {
     w.set_attr(g, "stalled", static_cast<int64_t>(s.stalled));
     w.set_attr(g, "done", static_cast<int64_t>(s.done));
   }
-  for (size_t k = 0; k < probes_.size(); ++k) {
-    const auto& pr = probes_[k];
+  for (size_t k = 0; k < scene_.probes.size(); ++k) {
+    const auto& pr = scene_.probes[k];
     const auto& s = pr.state();
     const std::string g = fmt::format("probes/{}", k);
     w.create_group(g);
@@ -275,8 +276,8 @@ void Level::write_scene_state(io::H5Writer& w) const {
     w.write(g + "/t_end", te);
     w.write(g + "/rate", rate);
   }
-  for (size_t k = 0; k < grids_.size(); ++k) {
-    const auto& gr = grids_[k];
+  for (size_t k = 0; k < scene_.grids.size(); ++k) {
+    const auto& gr = scene_.grids[k];
     const auto& s = gr.grid.state();
     const std::string g = fmt::format("grids/{}", k);
     w.create_group(g);
@@ -292,7 +293,7 @@ void Level::write_scene_state(io::H5Writer& w) const {
   }
   std::vector<uint8_t> fired;
   std::vector<double> fired_at, next_check;
-  for (const auto& e : events_) {
+  for (const auto& e : scene_.events) {
     fired.push_back(e.fired ? 1 : 0);
     fired_at.push_back(e.fired_at);
     next_check.push_back(e.next_check);
@@ -303,7 +304,7 @@ void Level::write_scene_state(io::H5Writer& w) const {
   const std::string scene = scene_record(cs_, lvl_, case_placed_).dump();
   w.write("scene/record", reinterpret_cast<const uint8_t*>(scene.data()), scene.size());
   std::string rows;
-  for (const auto& r : series_rows_) rows += r + "\n";
+  for (const auto& r : out_.series_rows) rows += r + "\n";
   w.write("series/rows", reinterpret_cast<const uint8_t*>(rows.data()), rows.size());
 }
 
@@ -319,17 +320,18 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   double dt = 0.0, alpha = 0.0;
   CouplingReport cr;
   for (const RootScalar& f : root_scalars(run, dt, alpha, cr)) read_scalar(r, f);
-  if (dt != dt_ || alpha != alpha_)
+  if (dt != physics_.dt || alpha != physics_.alpha)
     throw std::runtime_error(fmt::format("{}: written with dt = {} s and alpha = {}, but the case now has dt = {} s "
                                          "and alpha = {}",
-                                         where, dt, alpha, dt_, alpha_));
+                                         where, dt, alpha, physics_.dt, physics_.alpha));
   const SceneMap map = check_scene(r);
   run_ = run;
   coupling_restored_ = cr;
   load_particles(r, map);
   restore_scene_state(r, map);
-  rebuild_pending_ = true;
-  log_->info("restarted from {} at step {} (t = {:.6g} s) with {} particles", where, run_.step, time(), p_.n_local());
+  stepper_.rebuild_pending = true;
+  log_->info("restarted from {} at step {} (t = {:.6g} s) with {} particles", where, run_.step, time(),
+             state_.p.n_local());
 }
 
 SceneMap Level::check_scene(const io::H5Reader& r) const {
@@ -384,40 +386,40 @@ void Level::load_particles(const io::H5Reader& r, const SceneMap& map) {
   check_history(r, "history/walls", walls, p.x.size());
   const auto grid = r.read<int32_t>("decomposition/grid");
   check_length(r, "decomposition/grid", grid.size(), 3, "one per axis");
-  const bool same_grid = grid[0] == dec_.grid()[0] && grid[1] == dec_.grid()[1] &&
-                         grid[2] == dec_.grid()[2];
+  const bool same_grid = grid[0] == stepper_.dec.grid()[0] && grid[1] == stepper_.dec.grid()[1] &&
+                         grid[2] == stepper_.dec.grid()[2];
   if (same_grid) {
     const std::array<std::vector<double>, 3> cuts{r.read<double>("decomposition/cuts_x"),
                                                   r.read<double>("decomposition/cuts_y"),
                                                   r.read<double>("decomposition/cuts_z")};
     check_cuts(r, cuts, grid);
-    dec_.set_cuts(cuts);
+    stepper_.dec.set_cuts(cuts);
   } else {
     log_->info("{}: written on a {} x {} x {} grid, continuing on {} x {} x {}", r.path().string(), grid[0], grid[1],
-               grid[2], dec_.grid()[0], dec_.grid()[1], dec_.grid()[2]);
+               grid[2], stepper_.dec.grid()[0], stepper_.dec.grid()[1], stepper_.dec.grid()[2]);
   }
   std::vector<int32_t> mine;
   for (size_t i = 0; i < p.x.size(); ++i)
-    if (dec_.owner(p.x[i]) == comm_.rank()) mine.push_back(static_cast<int32_t>(i));
-  global_particles_ = static_cast<int64_t>(p.x.size());
+    if (stepper_.dec.owner(p.x[i]) == comm_.rank()) mine.push_back(static_cast<int32_t>(i));
+  stepper_.global_particles = static_cast<int64_t>(p.x.size());
   p.permute(mine);  // also sets the local count
-  p_ = std::move(p);
+  state_.p = std::move(p);
 
-  pair_hist_ = std::move(pairs);
-  wall_hist_ = std::move(walls);
-  pair_hist_.permute(mine, mine.size());
-  wall_hist_.permute(mine, mine.size());
-  history_loaded_ = true;
+  state_.pair_hist = std::move(pairs);
+  state_.wall_hist = std::move(walls);
+  state_.pair_hist.permute(mine, mine.size());
+  state_.wall_hist.permute(mine, mine.size());
+  state_.history_loaded = true;
 }
 
 void Level::restore_scene_state(const io::H5Reader& r, const SceneMap& map) {
   const auto active = r.read<uint8_t>("walls/active");
-  if (active.size() != walls_.walls())
+  if (active.size() != state_.walls.walls())
     throw std::runtime_error(fmt::format("{}: has {} walls, the case has {}", r.path().string(), active.size(),
-                                         walls_.walls()));
-  for (size_t k = 0; k < active.size(); ++k) walls_.set_active(k, active[static_cast<size_t>(map.walls[k])] != 0);
-  for (size_t k = 0; k < ins_.size(); ++k) {
-    auto& s = ins_[k].state();
+                                         state_.walls.walls()));
+  for (size_t k = 0; k < active.size(); ++k) state_.walls.set_active(k, active[static_cast<size_t>(map.walls[k])] != 0);
+  for (size_t k = 0; k < scene_.ins.size(); ++k) {
+    auto& s = scene_.ins[k].state();
     const std::string g = fmt::format("insertion/{}", map.insertions[k]);
     s.requested = r.attr_int64(g, "requested");
     s.placed = r.attr_int64(g, "placed");
@@ -435,21 +437,21 @@ void Level::restore_scene_state(const io::H5Reader& r, const SceneMap& map) {
   const auto next_check = r.read<double>("events/next_check");
   check_length(r, "events/fired_at", fired_at.size(), fired.size(), "one per event");
   check_length(r, "events/next_check", next_check.size(), fired.size(), "one per event");
-  for (size_t e = 0; e < events_.size(); ++e) {
+  for (size_t e = 0; e < scene_.events.size(); ++e) {
     const int from = map.events[e];
     if (from < 0 || static_cast<size_t>(from) >= fired.size()) continue;  // added since: not fired yet
-    events_[e].fired = fired[static_cast<size_t>(from)] != 0;
-    events_[e].fired_at = fired_at[static_cast<size_t>(from)];
-    events_[e].next_check = next_check[static_cast<size_t>(from)];
+    scene_.events[e].fired = fired[static_cast<size_t>(from)] != 0;
+    scene_.events[e].fired_at = fired_at[static_cast<size_t>(from)];
+    scene_.events[e].next_check = next_check[static_cast<size_t>(from)];
   }
   restore_probes(r, map);
   restore_grids(r, map);
   const auto rows = r.read<uint8_t>("series/rows");
-  series_rows_.clear();
+  out_.series_rows.clear();
   std::string line;
   for (uint8_t c : rows) {
     if (c == '\n') {
-      series_rows_.push_back(line);
+      out_.series_rows.push_back(line);
       line.clear();
     } else {
       line.push_back(static_cast<char>(c));
@@ -461,17 +463,17 @@ void Level::restore_probes(const io::H5Reader& r, const SceneMap& map) {
   const auto opens = r.read<double>("probes/open_mass_per_rank");
   const size_t saved = map.saved_probes;
   const size_t writer_ranks = saved == 0 ? 0 : opens.size() / saved;
-  for (size_t k = 0; k < probes_.size(); ++k) {
-    auto& pr = probes_[k];
+  for (size_t k = 0; k < scene_.probes.size(); ++k) {
+    auto& pr = scene_.probes[k];
     auto& s = pr.state();
-    pr.refresh(p_, skin_);  // sides of the plane as they are now, as the uninterrupted run knows them
+    pr.refresh(state_.p, stepper_.skin);  // sides of the plane as they are now, as the uninterrupted run knows them
     const int from = map.probes[k];
     if (from < 0) {  // added since the checkpoint: it measures from now on
       s.sample_start = time();
-      for (size_t e = 0; e < events_.size(); ++e)
-        if (events_[e].fired && cs_.events[e].name == probe_events_[k]) {
-          pr.params().window_start = events_[e].fired_at + cs_.probes[k].window_start;
-          pr.params().window_end = events_[e].fired_at + cs_.probes[k].window_end;
+      for (size_t e = 0; e < scene_.events.size(); ++e)
+        if (scene_.events[e].fired && cs_.events[e].name == scene_.probe_events[k]) {
+          pr.params().window_start = scene_.events[e].fired_at + cs_.probes[k].window_start;
+          pr.params().window_end = scene_.events[e].fired_at + cs_.probes[k].window_end;
           pr.params().window_known = true;
         }
       log_->info("probe '{}' is not in the checkpoint: it measures from t = {:.6g} s on", pr.params().name, time());
@@ -499,8 +501,8 @@ void Level::restore_probes(const io::H5Reader& r, const SceneMap& map) {
 }
 
 void Level::restore_grids(const io::H5Reader& r, const SceneMap& map) {
-  for (size_t k = 0; k < grids_.size(); ++k) {
-    auto& gr = grids_[k];
+  for (size_t k = 0; k < scene_.grids.size(); ++k) {
+    auto& gr = scene_.grids[k];
     auto& s = gr.grid.state();
     if (map.grids[k] < 0) {  // added since the checkpoint: its first average ends at the next whole output interval
       gr.next_output = (std::floor(time() / gr.output_interval + 1e-9) + 1.0) * gr.output_interval;
