@@ -91,20 +91,20 @@ void check_cuts(const io::H5Reader& r, const std::array<std::vector<double>, 3>&
         damaged(r, name + " is not an ascending list of finite numbers");
   }
 }
-// One number of the checkpoint's root attributes (or the insertion generator's state) and where it
-// lives while the level runs. `optional`: older checkpoints lack it and it reads as zero.
-struct RootScalar {
+// One number among a group's attributes in the checkpoint (or the insertion generator's state) and
+// where it lives while the level runs. `optional`: older checkpoints lack it and it reads as zero.
+struct Scalar {
   std::string name;
-  std::variant<uint64_t*, int64_t*, double*, std::mt19937_64*> value;
+  std::variant<uint64_t*, int64_t*, int*, bool*, double*, std::mt19937_64*> value;
   bool optional = false;
 };
 
-// Every root scalar of a checkpoint, in the order written: the writer and the reader both work from
+// Every scalar of a checkpoint's root, in the order written: the writer and the reader both work from
 // this list, so a new one is one line here (and a member of RunState). dt and alpha are read only to
 // be compared with the case; the coupling counters are written from coupling_report().
-std::vector<RootScalar> root_scalars(RunState& s, double& dt, double& alpha, Level::CouplingReport& c) {
-  std::vector<RootScalar> f = {{"step", &s.step}, {"dt", &dt}, {"alpha", &alpha}, {"next_id", &s.next_id},
-                               {"removed", &s.removed}, {"removed_mass", &s.removed_mass}};
+std::vector<Scalar> root_scalars(RunState& s, double& dt, double& alpha, Level::CouplingReport& c) {
+  std::vector<Scalar> f = {{"step", &s.step}, {"dt", &dt}, {"alpha", &alpha}, {"next_id", &s.next_id},
+                           {"removed", &s.removed}, {"removed_mass", &s.removed_mass}};
   for (int e = 0; e < kExits; ++e) {  // older checkpoints do not split the removals by exit
     const std::string exit = to_string(static_cast<Exit>(e));
     f.push_back({"removed_" + exit, &s.removed_by[e], true});
@@ -130,35 +130,49 @@ std::vector<RootScalar> root_scalars(RunState& s, double& dt, double& alpha, Lev
   return f;
 }
 
-// Integers keep their signedness (int64 or uint64 attributes), the generator is stored as its text.
-void write_scalar(io::H5Writer& w, const RootScalar& f) {
+// The attributes of group insertion/<k>: one insertion's progress.
+std::vector<Scalar> insertion_scalars(Inserter::State& s) {
+  return {{"requested", &s.requested}, {"placed", &s.placed},
+          {"failed", &s.failed},       {"pending", &s.pending},
+          {"placed_mass", &s.placed_mass}, {"failed_mass", &s.failed_mass_estimate},
+          {"batch", &s.batch},         {"stalled", &s.stalled},
+          {"done", &s.done}};
+}
+
+// Unsigned integers are stored as uint64, int and bool as int64, the generator as its text.
+void write_scalar(io::H5Writer& w, const std::string& obj, const Scalar& f) {
   std::visit(
       [&](auto* v) {
-        if constexpr (std::is_same_v<decltype(v), std::mt19937_64*>) {
+        using T = std::remove_pointer_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, std::mt19937_64>) {
           std::ostringstream text;
           text << *v;
-          w.set_attr("/", f.name, text.str());
+          w.set_attr(obj, f.name, text.str());
+        } else if constexpr (std::is_same_v<T, bool> || std::is_same_v<T, int>) {
+          w.set_attr(obj, f.name, static_cast<int64_t>(*v));
         } else {
-          w.set_attr("/", f.name, *v);
+          w.set_attr(obj, f.name, *v);
         }
       },
       f.value);
 }
 
-void read_scalar(const io::H5Reader& r, const RootScalar& f) {
-  if (f.optional && !r.has_attr("/", f.name)) return;
+void read_scalar(const io::H5Reader& r, const std::string& obj, const Scalar& f) {
+  if (f.optional && !r.has_attr(obj, f.name)) return;
   std::visit(
       [&](auto* v) {
         using T = std::remove_pointer_t<decltype(v)>;
         if constexpr (std::is_same_v<T, std::mt19937_64>) {
-          std::istringstream text(r.attr_string("/", f.name));
+          std::istringstream text(r.attr_string(obj, f.name));
           text >> *v;
         } else if constexpr (std::is_same_v<T, double>) {
-          *v = r.attr_double("/", f.name);
+          *v = r.attr_double(obj, f.name);
+        } else if constexpr (std::is_same_v<T, bool>) {
+          *v = r.attr_int64(obj, f.name) != 0;
         } else if constexpr (std::is_signed_v<T>) {
-          *v = r.attr_int64("/", f.name);
+          *v = static_cast<T>(r.attr_int64(obj, f.name));
         } else {
-          *v = r.attr_uint64("/", f.name);
+          *v = r.attr_uint64(obj, f.name);
         }
       },
       f.value);
@@ -203,7 +217,7 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
   RunState run = run_;
   double dt = physics_.dt, alpha = physics_.alpha;
   CouplingReport cr = coupling;
-  for (const RootScalar& f : root_scalars(run, dt, alpha, cr)) write_scalar(w, f);
+  for (const Scalar& f : root_scalars(run, dt, alpha, cr)) write_scalar(w, "/", f);
 
   Particles p;
   ContactHistory hp, hw;
@@ -245,18 +259,10 @@ void Level::write_scene_state(io::H5Writer& w) const {
   w.write("walls/active", active);
 
   for (size_t k = 0; k < scene_.ins.size(); ++k) {
-    const auto& s = scene_.ins[k].state();
+    Inserter::State s = scene_.ins[k].state();
     const std::string g = fmt::format("insertion/{}", k);
     w.create_group(g);
-    w.set_attr(g, "requested", s.requested);
-    w.set_attr(g, "placed", s.placed);
-    w.set_attr(g, "failed", s.failed);
-    w.set_attr(g, "pending", s.pending);
-    w.set_attr(g, "placed_mass", s.placed_mass);
-    w.set_attr(g, "failed_mass", s.failed_mass_estimate);
-    w.set_attr(g, "batch", s.batch);
-    w.set_attr(g, "stalled", static_cast<int64_t>(s.stalled));
-    w.set_attr(g, "done", static_cast<int64_t>(s.done));
+    for (const Scalar& f : insertion_scalars(s)) write_scalar(w, g, f);
   }
   for (size_t k = 0; k < scene_.probes.size(); ++k) {
     const auto& pr = scene_.probes[k];
@@ -319,7 +325,7 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   RunState run;
   double dt = 0.0, alpha = 0.0;
   CouplingReport cr;
-  for (const RootScalar& f : root_scalars(run, dt, alpha, cr)) read_scalar(r, f);
+  for (const Scalar& f : root_scalars(run, dt, alpha, cr)) read_scalar(r, "/", f);
   if (dt != physics_.dt || alpha != physics_.alpha)
     throw std::runtime_error(fmt::format("{}: written with dt = {} s and alpha = {}, but the case now has dt = {} s "
                                          "and alpha = {}",
@@ -419,17 +425,8 @@ void Level::restore_scene_state(const io::H5Reader& r, const SceneMap& map) {
                                          state_.walls.walls()));
   for (size_t k = 0; k < active.size(); ++k) state_.walls.set_active(k, active[static_cast<size_t>(map.walls[k])] != 0);
   for (size_t k = 0; k < scene_.ins.size(); ++k) {
-    auto& s = scene_.ins[k].state();
     const std::string g = fmt::format("insertion/{}", map.insertions[k]);
-    s.requested = r.attr_int64(g, "requested");
-    s.placed = r.attr_int64(g, "placed");
-    s.failed = r.attr_int64(g, "failed");
-    s.pending = r.attr_int64(g, "pending");
-    s.placed_mass = r.attr_double(g, "placed_mass");
-    s.failed_mass_estimate = r.attr_double(g, "failed_mass");
-    s.batch = r.attr_int64(g, "batch");
-    s.stalled = static_cast<int>(r.attr_int64(g, "stalled"));
-    s.done = r.attr_int64(g, "done") != 0;
+    for (const Scalar& f : insertion_scalars(scene_.ins[k].state())) read_scalar(r, g, f);
   }
   // Events first: a probe added since counts its window from an event that has already fired.
   const auto fired = r.read<uint8_t>("events/fired");
