@@ -214,6 +214,7 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
   w.set_attr("/", "version", kCheckpointVersion);
   w.set_attr("/", "case", cs_.path);
   w.set_attr("/", "level", lvl_.name);
+  // root_scalars() points into what it is given, for the reader too: the writer gives it copies.
   RunState run = run_;
   double dt = physics_.dt, alpha = physics_.alpha;
   CouplingReport cr = coupling;
