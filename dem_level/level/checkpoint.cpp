@@ -6,6 +6,8 @@
 #include <cstring>
 #include <sstream>
 #include <tuple>
+#include <type_traits>
+#include <variant>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -89,26 +91,113 @@ void check_cuts(const io::H5Reader& r, const std::array<std::vector<double>, 3>&
         damaged(r, name + " is not an ascending list of finite numbers");
   }
 }
+// One number among a group's attributes in the checkpoint (or the insertion generator's state) and
+// where it lives while the level runs. `optional`: older checkpoints lack it and it reads as zero.
+struct Scalar {
+  std::string name;
+  std::variant<uint64_t*, int64_t*, int*, bool*, double*, std::mt19937_64*> value;
+  bool optional = false;
+};
+
+// Every scalar of a checkpoint's root, in the order written: the writer and the reader both work from
+// this list, so a new one is one line here (and a member of RunState). dt and alpha are read only to
+// be compared with the case; the coupling counters are written from coupling_report().
+std::vector<Scalar> root_scalars(RunState& s, double& dt, double& alpha, Level::CouplingReport& c) {
+  std::vector<Scalar> f = {{"step", &s.step}, {"dt", &dt}, {"alpha", &alpha}, {"next_id", &s.next_id},
+                           {"removed", &s.removed}, {"removed_mass", &s.removed_mass}};
+  for (int e = 0; e < kExits; ++e) {  // older checkpoints do not split the removals by exit
+    const std::string exit = to_string(static_cast<Exit>(e));
+    f.push_back({"removed_" + exit, &s.removed_by[e], true});
+    f.push_back({"removed_mass_" + exit, &s.removed_mass_by[e], true});
+  }
+  f.insert(f.end(), {{"explicit_count", &s.explicit_count},
+                     {"explicit_mass", &s.explicit_mass},
+                     {"particle_steps", &s.particle_steps},
+                     {"max_particles", &s.max_particles},
+                     {"rebuilds", &s.rebuilds},
+                     {"end_time", &s.end_time},
+                     {"next_stats", &s.next_stats},
+                     {"next_snapshot", &s.next_snapshot},
+                     {"next_checkpoint", &s.next_checkpoint},
+                     {"snapshots", &s.snapshots},
+                     {"wall_seconds", &s.wall_seconds_before},
+                     // The coupling counters came with later builds.
+                     {"coupling_inserted", &c.inserted, true},
+                     {"coupling_worst_insert_overlap", &c.worst_insert_overlap, true},
+                     {"coupling_worst_insert_wall_overlap", &c.worst_insert_wall_overlap, true},
+                     {"coupling_inserted_outside_walls", &c.inserted_outside_walls, true},
+                     {"rng", &s.rng}});
+  return f;
+}
+
+// The attributes of group insertion/<k>: one insertion's progress.
+std::vector<Scalar> insertion_scalars(Inserter::State& s) {
+  return {{"requested", &s.requested}, {"placed", &s.placed},
+          {"failed", &s.failed},       {"pending", &s.pending},
+          {"placed_mass", &s.placed_mass}, {"failed_mass", &s.failed_mass_estimate},
+          {"batch", &s.batch},         {"stalled", &s.stalled},
+          {"done", &s.done}};
+}
+
+// Unsigned integers are stored as uint64, int and bool as int64, the generator as its text.
+void write_scalar(io::H5Writer& w, const std::string& obj, const Scalar& f) {
+  std::visit(
+      [&](auto* v) {
+        using T = std::remove_pointer_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, std::mt19937_64>) {
+          std::ostringstream text;
+          text << *v;
+          w.set_attr(obj, f.name, text.str());
+        } else if constexpr (std::is_same_v<T, bool> || std::is_same_v<T, int>) {
+          w.set_attr(obj, f.name, static_cast<int64_t>(*v));
+        } else {
+          w.set_attr(obj, f.name, *v);
+        }
+      },
+      f.value);
+}
+
+void read_scalar(const io::H5Reader& r, const std::string& obj, const Scalar& f) {
+  if (f.optional && !r.has_attr(obj, f.name)) return;
+  std::visit(
+      [&](auto* v) {
+        using T = std::remove_pointer_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, std::mt19937_64>) {
+          std::istringstream text(r.attr_string(obj, f.name));
+          text >> *v;
+        } else if constexpr (std::is_same_v<T, double>) {
+          *v = r.attr_double(obj, f.name);
+        } else if constexpr (std::is_same_v<T, bool>) {
+          *v = r.attr_int64(obj, f.name) != 0;
+        } else if constexpr (std::is_signed_v<T>) {
+          *v = static_cast<T>(r.attr_int64(obj, f.name));
+        } else {
+          *v = r.attr_uint64(obj, f.name);
+        }
+      },
+      f.value);
+}
 }  // namespace
 
 void Level::write_checkpoint(const std::filesystem::path& path) const {
   // Particles and their contact history, gathered from all ranks in rank order.
   ContactHistory ph, wh;
-  if (keep_history_ && history_loaded_) {  // restarted, no list built yet: the history is still per particle
-    ph = pair_hist_;
-    wh = wall_hist_;
-  } else if (keep_history_) {
-    nl_.save_history(p_, ph);
-    walls_.save_history(p_, wh);
+  // Restarted, no list built yet: the history is still per particle.
+  if (stepper_.keep_history && state_.history_loaded) {
+    ph = state_.pair_hist;
+    wh = state_.wall_hist;
+  } else if (stepper_.keep_history) {
+    state_.nl.save_history(state_.p, ph);
+    state_.walls.save_history(state_.p, wh);
   } else {
-    ph.clear(p_.size());
-    wh.clear(p_.size());
+    ph.clear(state_.p.size());
+    wh.clear(state_.p.size());
   }
   std::vector<char> buf;
   ByteWriter bw(buf);
-  for (size_t i = 0; i < p_.n_local(); ++i) pack_particle(bw, p_, i, ph, wh);
+  for (size_t i = 0; i < state_.p.n_local(); ++i) pack_particle(bw, state_.p, i, ph, wh);
   std::vector<double> open_mass;  // each rank's part of each probe's open sample
-  for (const auto& pr : probes_) open_mass.push_back(pr.open_mass());
+  for (const auto& pr : scene_.probes) open_mass.push_back(pr.open_mass());
   std::vector<char> om(reinterpret_cast<const char*>(open_mass.data()),
                        reinterpret_cast<const char*>(open_mass.data() + open_mass.size()));
   const auto all = comm_.gather0(buf);
@@ -125,35 +214,11 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
   w.set_attr("/", "version", kCheckpointVersion);
   w.set_attr("/", "case", cs_.path);
   w.set_attr("/", "level", lvl_.name);
-  w.set_attr("/", "step", step_);
-  w.set_attr("/", "dt", dt_);
-  w.set_attr("/", "alpha", alpha_);
-  w.set_attr("/", "next_id", next_id_);
-  w.set_attr("/", "removed", removed_);
-  w.set_attr("/", "removed_mass", removed_mass_);
-  for (int e = 0; e < kExits; ++e) {
-    w.set_attr("/", std::string("removed_") + to_string(static_cast<Exit>(e)), removed_by_[e]);
-    w.set_attr("/", std::string("removed_mass_") + to_string(static_cast<Exit>(e)), removed_mass_by_[e]);
-  }
-  w.set_attr("/", "explicit_count", explicit_count_);
-  w.set_attr("/", "explicit_mass", explicit_mass_);
-  w.set_attr("/", "particle_steps", particle_steps_);
-  w.set_attr("/", "max_particles", static_cast<uint64_t>(max_particles_));
-  w.set_attr("/", "rebuilds", rebuilds_);
-  w.set_attr("/", "end_time", end_time_);
-  w.set_attr("/", "next_stats", next_stats_);
-  w.set_attr("/", "next_snapshot", next_snapshot_);
-  w.set_attr("/", "next_checkpoint", next_checkpoint_);
-  w.set_attr("/", "snapshots", snapshots_);
-  w.set_attr("/", "wall_seconds", wall_seconds_before_);
-  w.set_attr("/", "coupling_inserted", coupling.inserted);
-  w.set_attr("/", "coupling_worst_insert_overlap", coupling.worst_insert_overlap);
-  w.set_attr("/", "coupling_worst_insert_wall_overlap", coupling.worst_insert_wall_overlap);
-  w.set_attr("/", "coupling_inserted_outside_walls", coupling.inserted_outside_walls);
-  std::ostringstream rng;
-  rng << rng_;
-  w.set_attr("/", "rng", rng.str());
-
+  // root_scalars() points into what it is given, for the reader too: the writer gives it copies.
+  RunState run = run_;
+  double dt = physics_.dt, alpha = physics_.alpha;
+  CouplingReport cr = coupling;
+  for (const Scalar& f : root_scalars(run, dt, alpha, cr)) write_scalar(w, "/", f);
 
   Particles p;
   ContactHistory hp, hw;
@@ -176,11 +241,11 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
   write_history(w, "history/walls", hw);
 
   // The decomposition, so that a restart on the same grid keeps every particle on its rank.
-  const auto& grid = dec_.grid();
+  const auto& grid = stepper_.dec.grid();
   w.write("decomposition/grid", std::vector<int32_t>{grid[0], grid[1], grid[2]});
-  w.write("decomposition/cuts_x", dec_.cuts()[0]);
-  w.write("decomposition/cuts_y", dec_.cuts()[1]);
-  w.write("decomposition/cuts_z", dec_.cuts()[2]);
+  w.write("decomposition/cuts_x", stepper_.dec.cuts()[0]);
+  w.write("decomposition/cuts_y", stepper_.dec.cuts()[1]);
+  w.write("decomposition/cuts_z", stepper_.dec.cuts()[2]);
   std::vector<double> opens(all_open.size() / sizeof(double));
   if (!opens.empty()) std::memcpy(opens.data(), all_open.data(), all_open.size());
   w.write("probes/open_mass_per_rank", opens);
@@ -191,25 +256,17 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
 
 void Level::write_scene_state(io::H5Writer& w) const {
   std::vector<uint8_t> active;
-  for (size_t k = 0; k < walls_.walls(); ++k) active.push_back(walls_.active(k) ? 1 : 0);
+  for (size_t k = 0; k < state_.walls.walls(); ++k) active.push_back(state_.walls.active(k) ? 1 : 0);
   w.write("walls/active", active);
 
-  for (size_t k = 0; k < ins_.size(); ++k) {
-    const auto& s = ins_[k].state();
+  for (size_t k = 0; k < scene_.ins.size(); ++k) {
+    Inserter::State s = scene_.ins[k].state();
     const std::string g = fmt::format("insertion/{}", k);
     w.create_group(g);
-    w.set_attr(g, "requested", s.requested);
-    w.set_attr(g, "placed", s.placed);
-    w.set_attr(g, "failed", s.failed);
-    w.set_attr(g, "pending", s.pending);
-    w.set_attr(g, "placed_mass", s.placed_mass);
-    w.set_attr(g, "failed_mass", s.failed_mass_estimate);
-    w.set_attr(g, "batch", s.batch);
-    w.set_attr(g, "stalled", static_cast<int64_t>(s.stalled));
-    w.set_attr(g, "done", static_cast<int64_t>(s.done));
+    for (const Scalar& f : insertion_scalars(s)) write_scalar(w, g, f);
   }
-  for (size_t k = 0; k < probes_.size(); ++k) {
-    const auto& pr = probes_[k];
+  for (size_t k = 0; k < scene_.probes.size(); ++k) {
+    const auto& pr = scene_.probes[k];
     const auto& s = pr.state();
     const std::string g = fmt::format("probes/{}", k);
     w.create_group(g);
@@ -226,8 +283,8 @@ void Level::write_scene_state(io::H5Writer& w) const {
     w.write(g + "/t_end", te);
     w.write(g + "/rate", rate);
   }
-  for (size_t k = 0; k < grids_.size(); ++k) {
-    const auto& gr = grids_[k];
+  for (size_t k = 0; k < scene_.grids.size(); ++k) {
+    const auto& gr = scene_.grids[k];
     const auto& s = gr.grid.state();
     const std::string g = fmt::format("grids/{}", k);
     w.create_group(g);
@@ -243,7 +300,7 @@ void Level::write_scene_state(io::H5Writer& w) const {
   }
   std::vector<uint8_t> fired;
   std::vector<double> fired_at, next_check;
-  for (const auto& e : events_) {
+  for (const auto& e : scene_.events) {
     fired.push_back(e.fired ? 1 : 0);
     fired_at.push_back(e.fired_at);
     next_check.push_back(e.next_check);
@@ -254,7 +311,7 @@ void Level::write_scene_state(io::H5Writer& w) const {
   const std::string scene = scene_record(cs_, lvl_, case_placed_).dump();
   w.write("scene/record", reinterpret_cast<const uint8_t*>(scene.data()), scene.size());
   std::string rows;
-  for (const auto& r : series_rows_) rows += r + "\n";
+  for (const auto& r : out_.series_rows) rows += r + "\n";
   w.write("series/rows", reinterpret_cast<const uint8_t*>(rows.data()), rows.size());
 }
 
@@ -266,45 +323,22 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   if (r.attr_int64("/", "version") != kCheckpointVersion)
     throw std::runtime_error(fmt::format("{}: checkpoint format version {} is not supported (this build reads {})",
                                          where, r.attr_int64("/", "version"), kCheckpointVersion));
-  if (r.attr_double("/", "dt") != dt_ || r.attr_double("/", "alpha") != alpha_)
+  RunState run;
+  double dt = 0.0, alpha = 0.0;
+  CouplingReport cr;
+  for (const Scalar& f : root_scalars(run, dt, alpha, cr)) read_scalar(r, "/", f);
+  if (dt != physics_.dt || alpha != physics_.alpha)
     throw std::runtime_error(fmt::format("{}: written with dt = {} s and alpha = {}, but the case now has dt = {} s "
                                          "and alpha = {}",
-                                         where, r.attr_double("/", "dt"), r.attr_double("/", "alpha"), dt_, alpha_));
+                                         where, dt, alpha, physics_.dt, physics_.alpha));
   const SceneMap map = check_scene(r);
-  step_ = r.attr_uint64("/", "step");
-  next_id_ = r.attr_int64("/", "next_id");
-  removed_ = r.attr_int64("/", "removed");
-  removed_mass_ = r.attr_double("/", "removed_mass");
-  for (int e = 0; e < kExits; ++e) {  // older checkpoints do not split the removals by exit
-    const std::string name = to_string(static_cast<Exit>(e));
-    removed_by_[e] = r.has_attr("/", "removed_" + name) ? r.attr_int64("/", "removed_" + name) : 0;
-    removed_mass_by_[e] = r.has_attr("/", "removed_" + name) ? r.attr_double("/", "removed_mass_" + name) : 0.0;
-  }
-  explicit_count_ = r.attr_int64("/", "explicit_count");
-  explicit_mass_ = r.attr_double("/", "explicit_mass");
-  particle_steps_ = r.attr_uint64("/", "particle_steps");
-  max_particles_ = r.attr_uint64("/", "max_particles");
-  rebuilds_ = r.attr_uint64("/", "rebuilds");
-  end_time_ = r.attr_double("/", "end_time");
-  next_stats_ = r.attr_double("/", "next_stats");
-  next_snapshot_ = r.attr_double("/", "next_snapshot");
-  next_checkpoint_ = r.attr_double("/", "next_checkpoint");
-  snapshots_ = r.attr_int64("/", "snapshots");
-  wall_seconds_before_ = r.attr_double("/", "wall_seconds");
-  if (r.has_attr("/", "coupling_inserted")) {  // written by this build on
-    coupling_restored_.inserted = r.attr_uint64("/", "coupling_inserted");
-    coupling_restored_.worst_insert_overlap = r.attr_double("/", "coupling_worst_insert_overlap");
-  }
-  if (r.has_attr("/", "coupling_inserted_outside_walls")) {
-    coupling_restored_.worst_insert_wall_overlap = r.attr_double("/", "coupling_worst_insert_wall_overlap");
-    coupling_restored_.inserted_outside_walls = r.attr_uint64("/", "coupling_inserted_outside_walls");
-  }
-  std::istringstream rng(r.attr_string("/", "rng"));
-  rng >> rng_;
+  run_ = run;
+  coupling_restored_ = cr;
   load_particles(r, map);
   restore_scene_state(r, map);
-  rebuild_pending_ = true;
-  log_->info("restarted from {} at step {} (t = {:.6g} s) with {} particles", where, step_, time(), p_.n_local());
+  stepper_.rebuild_pending = true;
+  log_->info("restarted from {} at step {} (t = {:.6g} s) with {} particles", where, run_.step, time(),
+             state_.p.n_local());
 }
 
 SceneMap Level::check_scene(const io::H5Reader& r) const {
@@ -359,50 +393,41 @@ void Level::load_particles(const io::H5Reader& r, const SceneMap& map) {
   check_history(r, "history/walls", walls, p.x.size());
   const auto grid = r.read<int32_t>("decomposition/grid");
   check_length(r, "decomposition/grid", grid.size(), 3, "one per axis");
-  const bool same_grid = grid[0] == dec_.grid()[0] && grid[1] == dec_.grid()[1] &&
-                         grid[2] == dec_.grid()[2];
+  const bool same_grid = grid[0] == stepper_.dec.grid()[0] && grid[1] == stepper_.dec.grid()[1] &&
+                         grid[2] == stepper_.dec.grid()[2];
   if (same_grid) {
     const std::array<std::vector<double>, 3> cuts{r.read<double>("decomposition/cuts_x"),
                                                   r.read<double>("decomposition/cuts_y"),
                                                   r.read<double>("decomposition/cuts_z")};
     check_cuts(r, cuts, grid);
-    dec_.set_cuts(cuts);
+    stepper_.dec.set_cuts(cuts);
   } else {
     log_->info("{}: written on a {} x {} x {} grid, continuing on {} x {} x {}", r.path().string(), grid[0], grid[1],
-               grid[2], dec_.grid()[0], dec_.grid()[1], dec_.grid()[2]);
+               grid[2], stepper_.dec.grid()[0], stepper_.dec.grid()[1], stepper_.dec.grid()[2]);
   }
   std::vector<int32_t> mine;
   for (size_t i = 0; i < p.x.size(); ++i)
-    if (dec_.owner(p.x[i]) == comm_.rank()) mine.push_back(static_cast<int32_t>(i));
-  global_particles_ = static_cast<int64_t>(p.x.size());
+    if (stepper_.dec.owner(p.x[i]) == comm_.rank()) mine.push_back(static_cast<int32_t>(i));
+  stepper_.global_particles = static_cast<int64_t>(p.x.size());
   p.permute(mine);  // also sets the local count
-  p_ = std::move(p);
+  state_.p = std::move(p);
 
-  pair_hist_ = std::move(pairs);
-  wall_hist_ = std::move(walls);
-  pair_hist_.permute(mine, mine.size());
-  wall_hist_.permute(mine, mine.size());
-  history_loaded_ = true;
+  state_.pair_hist = std::move(pairs);
+  state_.wall_hist = std::move(walls);
+  state_.pair_hist.permute(mine, mine.size());
+  state_.wall_hist.permute(mine, mine.size());
+  state_.history_loaded = true;
 }
 
 void Level::restore_scene_state(const io::H5Reader& r, const SceneMap& map) {
   const auto active = r.read<uint8_t>("walls/active");
-  if (active.size() != walls_.walls())
+  if (active.size() != state_.walls.walls())
     throw std::runtime_error(fmt::format("{}: has {} walls, the case has {}", r.path().string(), active.size(),
-                                         walls_.walls()));
-  for (size_t k = 0; k < active.size(); ++k) walls_.set_active(k, active[static_cast<size_t>(map.walls[k])] != 0);
-  for (size_t k = 0; k < ins_.size(); ++k) {
-    auto& s = ins_[k].state();
+                                         state_.walls.walls()));
+  for (size_t k = 0; k < active.size(); ++k) state_.walls.set_active(k, active[static_cast<size_t>(map.walls[k])] != 0);
+  for (size_t k = 0; k < scene_.ins.size(); ++k) {
     const std::string g = fmt::format("insertion/{}", map.insertions[k]);
-    s.requested = r.attr_int64(g, "requested");
-    s.placed = r.attr_int64(g, "placed");
-    s.failed = r.attr_int64(g, "failed");
-    s.pending = r.attr_int64(g, "pending");
-    s.placed_mass = r.attr_double(g, "placed_mass");
-    s.failed_mass_estimate = r.attr_double(g, "failed_mass");
-    s.batch = r.attr_int64(g, "batch");
-    s.stalled = static_cast<int>(r.attr_int64(g, "stalled"));
-    s.done = r.attr_int64(g, "done") != 0;
+    for (const Scalar& f : insertion_scalars(scene_.ins[k].state())) read_scalar(r, g, f);
   }
   // Events first: a probe added since counts its window from an event that has already fired.
   const auto fired = r.read<uint8_t>("events/fired");
@@ -410,21 +435,21 @@ void Level::restore_scene_state(const io::H5Reader& r, const SceneMap& map) {
   const auto next_check = r.read<double>("events/next_check");
   check_length(r, "events/fired_at", fired_at.size(), fired.size(), "one per event");
   check_length(r, "events/next_check", next_check.size(), fired.size(), "one per event");
-  for (size_t e = 0; e < events_.size(); ++e) {
+  for (size_t e = 0; e < scene_.events.size(); ++e) {
     const int from = map.events[e];
     if (from < 0 || static_cast<size_t>(from) >= fired.size()) continue;  // added since: not fired yet
-    events_[e].fired = fired[static_cast<size_t>(from)] != 0;
-    events_[e].fired_at = fired_at[static_cast<size_t>(from)];
-    events_[e].next_check = next_check[static_cast<size_t>(from)];
+    scene_.events[e].fired = fired[static_cast<size_t>(from)] != 0;
+    scene_.events[e].fired_at = fired_at[static_cast<size_t>(from)];
+    scene_.events[e].next_check = next_check[static_cast<size_t>(from)];
   }
   restore_probes(r, map);
   restore_grids(r, map);
   const auto rows = r.read<uint8_t>("series/rows");
-  series_rows_.clear();
+  out_.series_rows.clear();
   std::string line;
   for (uint8_t c : rows) {
     if (c == '\n') {
-      series_rows_.push_back(line);
+      out_.series_rows.push_back(line);
       line.clear();
     } else {
       line.push_back(static_cast<char>(c));
@@ -436,17 +461,17 @@ void Level::restore_probes(const io::H5Reader& r, const SceneMap& map) {
   const auto opens = r.read<double>("probes/open_mass_per_rank");
   const size_t saved = map.saved_probes;
   const size_t writer_ranks = saved == 0 ? 0 : opens.size() / saved;
-  for (size_t k = 0; k < probes_.size(); ++k) {
-    auto& pr = probes_[k];
+  for (size_t k = 0; k < scene_.probes.size(); ++k) {
+    auto& pr = scene_.probes[k];
     auto& s = pr.state();
-    pr.refresh(p_, skin_);  // sides of the plane as they are now, as the uninterrupted run knows them
+    pr.refresh(state_.p, stepper_.skin);  // sides of the plane as they are now, as the uninterrupted run knows them
     const int from = map.probes[k];
     if (from < 0) {  // added since the checkpoint: it measures from now on
       s.sample_start = time();
-      for (size_t e = 0; e < events_.size(); ++e)
-        if (events_[e].fired && cs_.events[e].name == probe_events_[k]) {
-          pr.params().window_start = events_[e].fired_at + cs_.probes[k].window_start;
-          pr.params().window_end = events_[e].fired_at + cs_.probes[k].window_end;
+      for (size_t e = 0; e < scene_.events.size(); ++e)
+        if (scene_.events[e].fired && cs_.events[e].name == scene_.probe_events[k]) {
+          pr.params().window_start = scene_.events[e].fired_at + cs_.probes[k].window_start;
+          pr.params().window_end = scene_.events[e].fired_at + cs_.probes[k].window_end;
           pr.params().window_known = true;
         }
       log_->info("probe '{}' is not in the checkpoint: it measures from t = {:.6g} s on", pr.params().name, time());
@@ -474,8 +499,8 @@ void Level::restore_probes(const io::H5Reader& r, const SceneMap& map) {
 }
 
 void Level::restore_grids(const io::H5Reader& r, const SceneMap& map) {
-  for (size_t k = 0; k < grids_.size(); ++k) {
-    auto& gr = grids_[k];
+  for (size_t k = 0; k < scene_.grids.size(); ++k) {
+    auto& gr = scene_.grids[k];
     auto& s = gr.grid.state();
     if (map.grids[k] < 0) {  // added since the checkpoint: its first average ends at the next whole output interval
       gr.next_output = (std::floor(time() / gr.output_interval + 1e-9) + 1.0) * gr.output_interval;

@@ -33,17 +33,17 @@ bool Level::stopping() const { return interrupted_ || stop_requested(); }
 
 void Level::pre_step() {
   const double t = time();
-  if (!events_.empty()) {
-    PhaseTimer timer(times_.measure);
+  if (!scene_.events.empty()) {
+    PhaseTimer timer(out_.times.measure);
     check_events(t);
   }
   insert_due(t);
 }
 
 void Level::check_events(double t) {
-  const double half = 0.5 * dt_;
-  for (size_t e = 0; e < events_.size(); ++e) {
-    auto& es = events_[e];
+  const double half = 0.5 * physics_.dt;
+  for (size_t e = 0; e < scene_.events.size(); ++e) {
+    auto& es = scene_.events[e];
     if (es.fired) continue;
     const auto& spec = cs_.events[e];
     if (spec.at >= 0.0) {
@@ -54,12 +54,12 @@ void Level::check_events(double t) {
     es.next_check = t + spec.check_interval;
     bool ready = true;
     if (spec.after_insertion)
-      for (const auto& in : ins_) ready = ready && in.state().done;
+      for (const auto& in : scene_.ins) ready = ready && in.state().done;
     if (ready && spec.mean_speed_below >= 0.0) {
       double s[2] = {0.0, 0.0};  // mass, sum m v^2 over all ranks
-      for (size_t i = 0; i < p_.n_local(); ++i) {
-        s[0] += p_.mass[i];
-        s[1] += p_.mass[i] * norm2(p_.v[i]);
+      for (size_t i = 0; i < state_.p.n_local(); ++i) {
+        s[0] += state_.p.mass[i];
+        s[1] += state_.p.mass[i] * norm2(state_.p.v[i]);
       }
       comm_.sum_in_place(s, 2);
       const double rms = s[0] > 0.0 ? std::sqrt(s[1] / s[0]) : 0.0;
@@ -75,24 +75,24 @@ void Level::check_events(double t) {
 }
 
 void Level::insert_due(double t) {
-  PhaseTimer timer(times_.insert);
-  for (auto& in : ins_) {
-    if (!in.due(t, dt_)) continue;
+  PhaseTimer timer(out_.times.insert);
+  for (auto& in : scene_.ins) {
+    if (!in.due(t, physics_.dt)) continue;
     // Every rank computes the same batch from the same data and keeps its own particles.
-    const double heap = in.follows_heap() ? comm_.max(in.heap_top(p_, norm(gravity_)))
+    const double heap = in.follows_heap() ? comm_.max(in.heap_top(state_.p, norm(physics_.gravity)))
                                           : -std::numeric_limits<double>::infinity();
     Vec3 lo, hi;
     in.batch_region(heap, lo, hi);
     std::vector<Sphere> mine;
-    in.nearby(p_, lo, hi, 2.0 * r_max_, mine);
+    in.nearby(state_.p, lo, hi, 2.0 * stepper_.r_max, mine);
     std::vector<char> buf(reinterpret_cast<const char*>(mine.data()),
                           reinterpret_cast<const char*>(mine.data() + mine.size()));
     const std::vector<char> all = comm_.allgather(buf);
     std::vector<Sphere> obstacles(all.size() / sizeof(Sphere));
     if (!obstacles.empty()) std::memcpy(obstacles.data(), all.data(), obstacles.size() * sizeof(Sphere));
     const auto before = in.state();
-    const auto rng_before = rng_;
-    const int64_t id_before = next_id_;
+    const auto rng_before = run_.rng;
+    const int64_t id_before = run_.next_id;
     // One batch of a large count without a rate can take minutes: say that it moves.
     double last_line = wall_seconds();
     const auto progress = [&](int64_t tried, int64_t wanted) {
@@ -102,26 +102,27 @@ void Level::insert_due(double t) {
       log_->info("insertion '{}': batch {} has tried {} of {} particles", in.params().name, before.batch + 1, tried,
                  wanted);
     };
-    const auto batch = in.place_batch(obstacles, 2.0 * r_max_, lo, hi, walls_, rng_, next_id_,
+    const auto batch = in.place_batch(obstacles, 2.0 * stepper_.r_max, lo, hi, state_.walls, run_.rng, run_.next_id,
                                       [this] { return stopping(); }, progress);
     // A signal reaches the ranks at different moments: all drop the batch together, and the state
     // (a checkpoint written on the way out) stays that before it.
     if (comm_.any(!batch)) {
       in.state() = before;
-      rng_ = rng_before;
-      next_id_ = id_before;
+      run_.rng = rng_before;
+      run_.next_id = id_before;
       throw StopRequested(fmt::format("interrupted by a signal during batch {} of insertion '{}' at t = {:.6g} s; "
                                       "the unfinished batch was dropped", before.batch + 1, in.params().name, t));
     }
     const auto& placed = *batch;
     if (!placed.empty()) {
-      detach_ghosts();  // new local particles go before the ghosts; the rebuild restores them
+      // New local particles go before the ghosts; the rebuild restores them.
+      state_.detach_ghosts(stepper_.keep_history);
       for (const auto& pi : placed)
-        if (dec_.owner(pi.x) == comm_.rank()) {
+        if (stepper_.dec.owner(pi.x) == comm_.rank()) {
           add_particle(pi);
-          if (coupled_) coupling_born(p_.n_local() - 1);
+          if (coupled_) coupling_born(state_.p.n_local() - 1);
         }
-      rebuild_pending_ = true;
+      stepper_.rebuild_pending = true;
     }
     if (in.state().done && in.state().failed > 0)
       log_->warn("insertion '{}': {} particles could not be placed (region full or blocked)", in.params().name,
@@ -130,19 +131,19 @@ void Level::insert_due(double t) {
 }
 
 void Level::fire_event(size_t e) {
-  auto& es = events_[e];
+  auto& es = scene_.events[e];
   const auto& spec = cs_.events[e];
   es.fired = true;
   es.fired_at = time();
   for (const auto& w : spec.remove_walls) {
-    walls_.set_active(static_cast<size_t>(walls_.find(w)), false);
-    rebuild_pending_ = true;
+    state_.walls.set_active(static_cast<size_t>(state_.walls.find(w)), false);
+    stepper_.rebuild_pending = true;
   }
   log_->info("t = {:.4f} s: event '{}'{}", es.fired_at, spec.name,
              spec.remove_walls.empty() ? "" : fmt::format(" removes {}", fmt::join(spec.remove_walls, ", ")));
-  for (size_t k = 0; k < probes_.size(); ++k)
-    if (probe_events_[k] == spec.name) {
-      auto& q = probes_[k].params();
+  for (size_t k = 0; k < scene_.probes.size(); ++k)
+    if (scene_.probe_events[k] == spec.name) {
+      auto& q = scene_.probes[k].params();
       q.window_start = es.fired_at + cs_.probes[k].window_start;
       q.window_end = es.fired_at + cs_.probes[k].window_end;
       q.window_known = true;
@@ -150,41 +151,41 @@ void Level::fire_event(size_t e) {
   resolve_end_time();
 }
 
-void Level::detach_ghosts() {
+void ParticleState::detach_ghosts(bool keep_history) {
   // The lists index ghosts; before the ghosts go, the contact history moves to
   // per-particle form (the ghosts' own entries go with them).
-  if (!history_loaded_) {
-    if (keep_history_) {
-      nl_.save_history(p_, pair_hist_);
-      walls_.save_history(p_, wall_hist_);
+  if (!history_loaded) {
+    if (keep_history) {
+      nl.save_history(p, pair_hist);
+      walls.save_history(p, wall_hist);
     } else {
-      pair_hist_.clear(p_.size());
-      wall_hist_.clear(p_.size());
+      pair_hist.clear(p.size());
+      wall_hist.clear(p.size());
     }
-    history_loaded_ = true;
+    history_loaded = true;
   }
-  p_.drop_ghosts();
-  pair_hist_.truncate(p_.n_local());
-  wall_hist_.truncate(p_.n_local());
+  p.drop_ghosts();
+  pair_hist.truncate(p.n_local());
+  wall_hist.truncate(p.n_local());
 }
 
 void Level::rebuild() {
-  detach_ghosts();
+  state_.detach_ghosts(stepper_.keep_history);
 
   if (!comm_.serial()) {
-    PhaseTimer t(times_.comm);
-    if (balance_ && rebuilds_ % kSortEvery == 0 && dec_.imbalance(comm_, p_.n_local()) > 1.05)
-      dec_.balance(comm_, p_.x, p_.n_local());
-    migrate(comm_, dec_, p_, pair_hist_, wall_hist_);
+    PhaseTimer t(out_.times.comm);
+    if (stepper_.balance && run_.rebuilds % kSortEvery == 0 && stepper_.dec.imbalance(comm_, state_.p.n_local()) > 1.05)
+      stepper_.dec.balance(comm_, state_.p.x, state_.p.n_local());
+    migrate(comm_, stepper_.dec, state_.p, state_.pair_hist, state_.wall_hist);
   }
 
   // Removal of particles that left the domain, and a periodic spatial sort.
-  const size_t n = p_.n_local();
+  const size_t n = state_.p.n_local();
   std::vector<int32_t> order;
-  const bool sort_now = rebuilds_ % kSortEvery == 0;
+  const bool sort_now = run_.rebuilds % kSortEvery == 0;
   if (sort_now) {
     CellBins bins;
-    bins.build(p_.x, n, 2.0 * r_max_ + skin_);
+    bins.build(state_.p.x, n, 2.0 * stepper_.r_max + stepper_.skin);
     order = bins.sorted();
   } else {
     order.resize(n);
@@ -193,73 +194,74 @@ void Level::rebuild() {
   std::vector<int32_t> keep;
   keep.reserve(n);
   double gone[2 * kExits] = {};  // count, mass per exit
+  const Vec3 &lo = physics_.dom_lo, &hi = physics_.dom_hi;
   for (int32_t i : order) {
-    const Vec3& x = p_.x[static_cast<size_t>(i)];
+    const Vec3& x = state_.p.x[static_cast<size_t>(i)];
     int exit = -1;
-    if (x.z < dom_lo_.z) exit = static_cast<int>(Exit::Outlet);
-    else if (x.x < dom_lo_.x || x.y < dom_lo_.y || x.x > dom_hi_.x || x.y > dom_hi_.y || x.z > dom_hi_.z)
+    if (x.z < lo.z) exit = static_cast<int>(Exit::Outlet);
+    else if (x.x < lo.x || x.y < lo.y || x.x > hi.x || x.y > hi.y || x.z > hi.z)
       exit = static_cast<int>(Exit::Wall);
     else if (coupled_ && coupling_removes(static_cast<size_t>(i))) exit = static_cast<int>(Exit::Boundary);
     if (exit >= 0) {
-      if (account_) account_->carried_out(p_, static_cast<size_t>(i));
+      if (account_) account_->carried_out(state_.p, static_cast<size_t>(i));
       gone[2 * exit] += 1.0;
-      gone[2 * exit + 1] += p_.mass[static_cast<size_t>(i)];
+      gone[2 * exit + 1] += state_.p.mass[static_cast<size_t>(i)];
       continue;
     }
     keep.push_back(i);
   }
   if (sort_now || keep.size() != n) {
-    p_.permute(keep);
-    pair_hist_.permute(keep, p_.size());
-    wall_hist_.permute(keep, p_.size());
+    state_.p.permute(keep);
+    state_.pair_hist.permute(keep, state_.p.size());
+    state_.wall_hist.permute(keep, state_.p.size());
   }
   {
-    PhaseTimer t(times_.comm);
+    PhaseTimer t(out_.times.comm);
     double counts[2 * kExits + 1];
     std::copy(gone, gone + 2 * kExits, counts);
-    counts[2 * kExits] = static_cast<double>(p_.n_local());
+    counts[2 * kExits] = static_cast<double>(state_.p.n_local());
     comm_.sum_in_place(counts, 2 * kExits + 1);
     for (int e = 0; e < kExits; ++e) {
       const auto k = static_cast<int64_t>(std::llround(counts[2 * e]));
-      removed_by_[e] += k;
-      removed_mass_by_[e] += counts[2 * e + 1];
-      removed_ += k;
-      removed_mass_ += counts[2 * e + 1];
+      run_.removed_by[e] += k;
+      run_.removed_mass_by[e] += counts[2 * e + 1];
+      run_.removed += k;
+      run_.removed_mass += counts[2 * e + 1];
     }
-    global_particles_ = static_cast<int64_t>(std::llround(counts[2 * kExits]));
-    ghosts_.build(comm_, dec_, p_, ghost_cutoff_);
+    stepper_.global_particles = static_cast<int64_t>(std::llround(counts[2 * kExits]));
+    stepper_.ghosts.build(comm_, stepper_.dec, state_.p, stepper_.ghost_cutoff);
   }
 
-  nl_.build(p_, keep_history_);
-  walls_.build_candidates(p_, skin_, keep_history_);
-  if (keep_history_) {
-    nl_.load_history(p_, pair_hist_);
-    walls_.load_history(wall_hist_);
+  state_.nl.build(state_.p, stepper_.keep_history);
+  state_.walls.build_candidates(state_.p, stepper_.skin, stepper_.keep_history);
+  if (stepper_.keep_history) {
+    state_.nl.load_history(state_.p, state_.pair_hist);
+    state_.walls.load_history(state_.wall_hist);
   }
   // The lists hold the history now; the per-particle copies are only needed at
   // the next rebuild, so give their memory back (about 190 bytes per particle).
-  pair_hist_ = ContactHistory{};
-  wall_hist_ = ContactHistory{};
-  history_loaded_ = false;
-  for (auto& pr : probes_) pr.refresh(p_, skin_);
+  state_.pair_hist = ContactHistory{};
+  state_.wall_hist = ContactHistory{};
+  state_.history_loaded = false;
+  for (auto& pr : scene_.probes) pr.refresh(state_.p, stepper_.skin);
   if (coupled_) coupling_refresh();
-  ++rebuilds_;
-  rebuild_pending_ = false;
+  ++run_.rebuilds;
+  stepper_.rebuild_pending = false;
 }
 
 std::string Level::describe_particle(size_t i) const {
-  const Vec3& x = p_.x[i];
-  const Vec3& v = p_.v[i];
+  const Vec3& x = state_.p.x[i];
+  const Vec3& v = state_.p.v[i];
   return fmt::format("particle id {} (radius {:.4g} m) at ({:.6g}, {:.6g}, {:.6g}) m with velocity ({:.4g}, {:.4g}, "
                      "{:.4g}) m/s, step {}, t = {:.6g} s",
-                     p_.id[i], p_.radius[i], x.x, x.y, x.z, v.x, v.y, v.z, step_, time());
+                     state_.p.id[i], state_.p.radius[i], x.x, x.y, x.z, v.x, v.y, v.z, run_.step, time());
 }
 
 std::string Level::non_finite(const char* what) const {
-  for (size_t i = 0; i < p_.n_local(); ++i)
-    if (!finite(p_.x[i]) || !finite(p_.v[i]) || !finite(p_.omega[i]))
+  for (size_t i = 0; i < state_.p.n_local(); ++i)
+    if (!finite(state_.p.x[i]) || !finite(state_.p.v[i]) || !finite(state_.p.omega[i]))
       return fmt::format("non-finite {} of {}", what, describe_particle(i));
-  return fmt::format("non-finite {} at step {} (sum overflow)", what, step_);
+  return fmt::format("non-finite {} at step {} (sum overflow)", what, run_.step);
 }
 
 void Level::guard(const std::string& local_problem, double badness) {
@@ -268,7 +270,7 @@ void Level::guard(const std::string& local_problem, double badness) {
     if (!local_problem.empty()) throw GuardStop(local_problem);
     return;
   }
-  PhaseTimer t(times_.comm);
+  PhaseTimer t(out_.times.comm);
   const auto [worst, at] = comm_.max_loc(local_problem.empty() ? -1.0 : badness);
   if (worst < 0.0) return;
   throw GuardStop(comm_.bcast(local_problem, at));
@@ -278,46 +280,46 @@ void Level::step_once() {
   if (coupled_) coupling_begin_step();
   pre_step();
   double sum = 0.0;
-  bool rebuild_now = rebuild_pending_;
+  bool rebuild_now = stepper_.rebuild_pending;
   {
-    PhaseTimer t(times_.integrate);
-    const Vec3* ref = nl_.reference(p_);
-    const FirstHalf fh = integrate_first_half(p_, dt_, gravity_, ref);
+    PhaseTimer t(out_.times.integrate);
+    const Vec3* ref = state_.nl.reference(state_.p);
+    const FirstHalf fh = integrate_first_half(state_.p, physics_.dt, physics_.gravity, ref);
     sum = fh.checksum;
-    rebuild_now = rebuild_now || !ref || fh.max_disp2 > 0.25 * skin_ * skin_;
+    rebuild_now = rebuild_now || !ref || fh.max_disp2 > 0.25 * stepper_.skin * stepper_.skin;
   }
   {
     // One reduction decides both: does any rank need a rebuild, has any a NaN.
-    PhaseTimer t(times_.comm);
+    PhaseTimer t(out_.times.comm);
     double flags[2] = {rebuild_now ? 1.0 : 0.0, std::isfinite(sum) ? 0.0 : 1.0};
     comm_.max_in_place(flags, 2);
     rebuild_now = flags[0] > 0.0;
     if (flags[1] > 0.0) guard(std::isfinite(sum) ? std::string() : non_finite("position"), 2.0);
-    if (!rebuild_now) ghosts_.forward(comm_, p_);
+    if (!rebuild_now) stepper_.ghosts.forward(comm_, state_.p);
   }
-  if (!probes_.empty()) {
-    PhaseTimer t(times_.measure);
-    for (auto& pr : probes_) pr.check(p_);
+  if (!scene_.probes.empty()) {
+    PhaseTimer t(out_.times.measure);
+    for (auto& pr : scene_.probes) pr.check(state_.p);
   }
   if (coupled_) coupling_after_drift();
   if (rebuild_now) {
-    PhaseTimer t(times_.neighbor);
+    PhaseTimer t(out_.times.neighbor);
     rebuild();
   }
   bool stress = false;
-  for (const auto& g : grids_) stress = stress || (step_ + 1) % g.sample_every == 0;
+  for (const auto& g : scene_.grids) stress = stress || (run_.step + 1) % g.sample_every == 0;
   if (coupled_) stress = stress || coupling_wants_stress();
   {
-    PhaseTimer t(times_.force);
-    clear_ghost_forces(p_);
-    forces_(fctx_, stress);
+    PhaseTimer t(out_.times.force);
+    clear_ghost_forces(state_.p);
+    stepper_.forces(stepper_.fctx, stress);
     if (coupled_) {
-      if (account_) account_->before_controller(p_);
+      if (account_) account_->before_controller(state_.p);
       coupling_forces();
-      if (account_) account_->after_controller(p_);
+      if (account_) account_->after_controller(state_.p);
     }
   }
-  const auto& st = fctx_.stats;
+  const auto& st = stepper_.fctx.stats;
   std::string problem;
   if (st.max_overlap_ratio > cs_.stability.max_overlap_fraction)
     problem = fmt::format("overlap of {:.1f} % of the radius (limit [stability] max_overlap_fraction = {:.0f} %) at "
@@ -325,23 +327,23 @@ void Level::step_once() {
                           100.0 * st.max_overlap_ratio, 100.0 * cs_.stability.max_overlap_fraction,
                           describe_particle(static_cast<size_t>(st.worst_particle)));
   {
-    PhaseTimer t(times_.integrate);
-    sum = integrate_second_half(p_, dt_);
-    if (account_) account_->controller_work(p_, dt_);
+    PhaseTimer t(out_.times.integrate);
+    sum = integrate_second_half(state_.p, physics_.dt);
+    if (account_) account_->controller_work(state_.p, physics_.dt);
   }
   if (problem.empty() && !std::isfinite(sum)) problem = non_finite("velocity");
   guard(problem, std::isfinite(sum) ? st.max_overlap_ratio : 2.0);
-  ++step_;
+  ++run_.step;
   ++steps_this_process_;
-  particle_steps_ += static_cast<uint64_t>(global_particles_);
-  max_particles_ = std::max<size_t>(max_particles_, static_cast<size_t>(global_particles_));
+  run_.particle_steps += static_cast<uint64_t>(stepper_.global_particles);
+  run_.max_particles = std::max<size_t>(run_.max_particles, static_cast<size_t>(stepper_.global_particles));
   after_step();
   if (coupled_) coupling_end_step();
 }
 
 MassBalance Level::mass_balance() const {
   MassBalance b;
-  for (const auto& in : ins_) {
+  for (const auto& in : scene_.ins) {
     const auto& s = in.state();
     b.requested += s.requested;
     b.inserted += s.placed;
@@ -351,25 +353,25 @@ MassBalance Level::mass_balance() const {
     b.failed_mass += s.failed_mass_estimate;
   }
   // Particles placed explicitly by the case count as requested and inserted.
-  b.requested += explicit_count_;
-  b.inserted += explicit_count_;
-  b.inserted_mass += explicit_mass_;
-  double present[2] = {static_cast<double>(p_.n_local()), 0.0};
-  for (size_t i = 0; i < p_.n_local(); ++i) present[1] += p_.mass[i];
+  b.requested += run_.explicit_count;
+  b.inserted += run_.explicit_count;
+  b.inserted_mass += run_.explicit_mass;
+  double present[2] = {static_cast<double>(state_.p.n_local()), 0.0};
+  for (size_t i = 0; i < state_.p.n_local(); ++i) present[1] += state_.p.mass[i];
   comm_.sum_in_place(present, 2);
   b.present = static_cast<int64_t>(std::llround(present[0]));
   b.present_mass = present[1];
-  b.removed = removed_;
-  b.removed_mass = removed_mass_;
-  std::copy(removed_by_, removed_by_ + kExits, b.removed_by);
-  std::copy(removed_mass_by_, removed_mass_by_ + kExits, b.removed_mass_by);
+  b.removed = run_.removed;
+  b.removed_mass = run_.removed_mass;
+  std::copy(run_.removed_by, run_.removed_by + kExits, b.removed_by);
+  std::copy(run_.removed_mass_by, run_.removed_mass_by + kExits, b.removed_mass_by);
   return b;
 }
 
 double Level::kinetic_energy() const {
   double e = 0.0;
-  for (size_t i = 0; i < p_.n_local(); ++i)
-    e += 0.5 * p_.mass[i] * norm2(p_.v[i]) + 0.5 / p_.inv_inertia[i] * norm2(p_.omega[i]);
+  for (size_t i = 0; i < state_.p.n_local(); ++i)
+    e += 0.5 * state_.p.mass[i] * norm2(state_.p.v[i]) + 0.5 / state_.p.inv_inertia[i] * norm2(state_.p.omega[i]);
   return comm_.sum(e);
 }
 
@@ -377,15 +379,15 @@ double Level::kinetic_energy() const {
 
 namespace mlcg {
 
-size_t Level::memory_bytes() const {
+size_t ParticleState::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(typename std::decay_t<decltype(v)>::value_type); };
-  size_t b = bytes(p_.x) + bytes(p_.v) + bytes(p_.f) + bytes(p_.omega) + bytes(p_.torque) + bytes(p_.radius) +
-             bytes(p_.mass) + bytes(p_.inv_mass) + bytes(p_.inv_inertia) + bytes(p_.id) + bytes(p_.material);
-  b += bytes(nl_.first) + bytes(nl_.neigh) + bytes(nl_.hist) + nl_.extra_bytes();
-  b += bytes(walls_.first) + bytes(walls_.prim) + bytes(walls_.hist);
-  b += bytes(pair_hist_.first) + bytes(pair_hist_.key) + bytes(pair_hist_.value);
-  b += bytes(wall_hist_.first) + bytes(wall_hist_.key) + bytes(wall_hist_.value);
-  b += bytes(stress6_);
+  size_t b = bytes(p.x) + bytes(p.v) + bytes(p.f) + bytes(p.omega) + bytes(p.torque) + bytes(p.radius) +
+             bytes(p.mass) + bytes(p.inv_mass) + bytes(p.inv_inertia) + bytes(p.id) + bytes(p.material);
+  b += bytes(nl.first) + bytes(nl.neigh) + bytes(nl.hist) + nl.extra_bytes();
+  b += bytes(walls.first) + bytes(walls.prim) + bytes(walls.hist);
+  b += bytes(pair_hist.first) + bytes(pair_hist.key) + bytes(pair_hist.value);
+  b += bytes(wall_hist.first) + bytes(wall_hist.key) + bytes(wall_hist.value);
+  b += bytes(stress6);
   return b;
 }
 

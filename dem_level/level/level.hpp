@@ -10,6 +10,9 @@
 // start the coupler's commands and insertion; face crossings after the drift;
 // controller forces after the contact forces; cell samples and the interval's
 // statistics after the step. Uncoupled, each of these is one untaken branch.
+//
+// Its data is in named parts (level_parts.hpp): the physics the case fixes, the particle state,
+// the stepper, the scene, the reporting, and RunState below (what a checkpoint carries).
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -20,24 +23,14 @@
 #include <vector>
 
 #include "config/case_spec.hpp"
-#include "core/material.hpp"
-#include "core/particles.hpp"
-#include "insertion/inserter.hpp"
 #include "level/energy_account.hpp"
-#include "level/force_dispatch.hpp"
-#include "level/stability.hpp"
-#include "measure/cell_grid.hpp"
-#include "measure/probe.hpp"
-#include "neighbor/neighbor_list.hpp"
+#include "level/level_parts.hpp"
 #include "parallel/comm.hpp"
-#include "parallel/decomposition.hpp"
-#include "parallel/exchange.hpp"
-#include "walls/wall_set.hpp"
 
 namespace spdlog { class logger; }
 
 namespace mlcg {
-namespace io { class SnapshotSeries; class GridSeries; class H5Reader; class H5Writer; }
+namespace io { class H5Reader; class H5Writer; }
 struct SceneMap;
 namespace bus { class CouplingGeometry; }
 
@@ -62,22 +55,6 @@ struct CouplingStop : std::runtime_error { using std::runtime_error::runtime_err
 // the step's unfinished work is dropped.
 struct StopRequested : std::runtime_error { using std::runtime_error::runtime_error; };
 
-// Wall seconds spent per phase of the step loop (for benchmarks and reports).
-struct PhaseTimes {
-  double integrate = 0.0;  // both velocity-Verlet halves and the NaN guard
-  double neighbor = 0.0;   // rebuilds: removal, sorting, binning, lists, wall candidates
-  double force = 0.0;      // pair and wall contact kernels
-  double comm = 0.0;       // exchanges between MPI ranks
-  double measure = 0.0;    // probes, cell grids, event conditions
-  double insert = 0.0;     // insertion batches
-  double output = 0.0;     // series, snapshots, checkpoints
-  double coupling = 0.0;   // multi-level work: face crossings, cell samples, controller forces, statistics, insertion
-  double coupling_wait = 0.0;  // blocked on the coupler's commands (the other levels' pace included)
-  double total() const {
-    return integrate + neighbor + force + comm + measure + insert + output + coupling + coupling_wait;
-  }
-};
-
 enum class RunStatus { Completed, StepLimit, Interrupted, Failed };
 const char* to_string(RunStatus s);
 
@@ -95,6 +72,28 @@ struct MassBalance {
   double removed_mass_by[kExits] = {0.0, 0.0, 0.0};
 };
 
+// The scalars of a level's run that a checkpoint carries besides the particles and the scene
+// (checkpoint.cpp names each once, for its writer and its reader): the clock, the ids, the mass
+// balance's counters, the output schedule and the random numbers of insertion.
+struct RunState {
+  uint64_t step = 0;
+  int64_t next_id = 0;
+  int64_t removed = 0;
+  double removed_mass = 0.0;
+  int64_t removed_by[kExits] = {0, 0, 0};
+  double removed_mass_by[kExits] = {0.0, 0.0, 0.0};
+  int64_t explicit_count = 0;       // the case's [[particles]] and [initial] particles (and the coupler's)
+  double explicit_mass = 0.0;
+  uint64_t particle_steps = 0;
+  size_t max_particles = 0;
+  uint64_t rebuilds = 0;
+  double end_time = -1.0;           // < 0: not known yet (waits for an event)
+  double next_stats = 0.0, next_snapshot = 0.0, next_checkpoint = 0.0;
+  int64_t snapshots = 0;
+  double wall_seconds_before = 0.0;  // from earlier processes of a restarted run
+  std::mt19937_64 rng;              // insertion's; seeded from the case
+};
+
 class Level {
  public:
   Level(const config::CaseSpec& cs, LevelOptions opt);
@@ -107,16 +106,16 @@ class Level {
   void add_particle(const ParticleInit& pi);  // explicit placement; ids must be unique
 
   // State, for tests and reports.
-  const Particles& particles() const { return p_; }
-  Particles& particles_mut() { rebuild_pending_ = true; return p_; }
-  double time() const { return static_cast<double>(step_) * dt_; }
-  uint64_t step() const { return step_; }
-  double dt() const { return dt_; }
-  double end_time() const { return end_time_; }
-  const WallSet& walls() const { return walls_; }
-  const std::vector<Vec3>& wall_forces() const { return wall_force_; }
-  const ContactStats& contact_stats() const { return fctx_.stats; }
-  const std::vector<MassFlowProbe>& probes() const { return probes_; }
+  const Particles& particles() const { return state_.p; }
+  Particles& particles_mut() { stepper_.rebuild_pending = true; return state_.p; }
+  double time() const { return static_cast<double>(run_.step) * physics_.dt; }
+  uint64_t step() const { return run_.step; }
+  double dt() const { return physics_.dt; }
+  double end_time() const { return run_.end_time; }
+  const WallSet& walls() const { return state_.walls; }
+  const std::vector<Vec3>& wall_forces() const { return state_.wall_force; }
+  const ContactStats& contact_stats() const { return stepper_.fctx.stats; }
+  const std::vector<MassFlowProbe>& probes() const { return scene_.probes; }
   MassBalance mass_balance() const;
   double kinetic_energy() const;
   // Mechanical energy [J] (collective; level/energy.cpp): kinetic, rotational, gravitational
@@ -126,16 +125,16 @@ class Level {
   Energy energy();
   // The energy account ([output] energy_interval; level/energy_account.hpp); null when off.
   const EnergyAccount* energy_account() const { return account_.get(); }
-  const StabilityReport& stability() const { return stab_; }
-  const PhaseTimes& phase_times() const { return times_; }
-  void reset_phase_times() { times_ = PhaseTimes{}; }
-  uint64_t rebuilds() const { return rebuilds_; }
-  size_t neighbor_pairs() const { return nl_.pairs(); }
+  const StabilityReport& stability() const { return physics_.stab; }
+  const PhaseTimes& phase_times() const { return out_.times; }
+  void reset_phase_times() { out_.times = PhaseTimes{}; }
+  uint64_t rebuilds() const { return run_.rebuilds; }
+  size_t neighbor_pairs() const { return state_.nl.pairs(); }
   // Heap bytes held for particles, contact lists, history and bins (capacities).
-  size_t memory_bytes() const;
+  size_t memory_bytes() const { return state_.memory_bytes(); }
   const config::CaseSpec& spec() const { return cs_; }
   // Cell-grid averages since the last output of grid g (resets them).
-  GridAverages take_grid_averages(size_t g) { return grids_[g].grid.take_averages(); }
+  GridAverages take_grid_averages(size_t g) { return scene_.grids[g].grid.take_averages(); }
 
   // Collective: the state of every rank, gathered and written by rank 0 (throws OutputStop on every
   // rank when it cannot be written).
@@ -156,25 +155,21 @@ class Level {
   CouplingReport coupling_report() const;
 
  private:
-  struct EventState {
-    bool fired = false;
-    double fired_at = -1.0;
-    double next_check = 0.0;
-  };
-  struct GridRun {
-    CellGrid grid;
-    uint64_t sample_every = 1;   // steps
-    double output_interval = 0.0;
-    double next_output = 0.0;
-    int64_t outputs = 0;
-    std::unique_ptr<io::GridSeries> series;
-    std::vector<double> sums, maxs;  // scratch for one sample
-  };
-
+  // setup() in steps (level_setup.cpp), in the order it runs them.
   void setup();
+  void setup_logging();
+  void select_level();              // the [[levels]] entry: dt, alpha; gravity, domain, seed
+  void setup_contact();             // materials and the force routine of the contact model
+  void setup_decomposition();
   void setup_walls();
   void setup_insertions();
+  void place_case_particles(bool fills_scene, std::vector<ParticleKind>& kinds, std::vector<PlacedParticle>& placed);
+  double setup_stability(const std::vector<ParticleKind>& explicit_kinds,
+                         const std::vector<PlacedParticle>& placed);  // returns the largest radius
+  void setup_skin(double r_max);
   void setup_measurements();
+  void start_state();               // run folder; checkpoint, coupler or the forces at t = 0
+  void initial_forces();
   void load_checkpoint(const std::filesystem::path& path);
   // Parts of load_checkpoint (checkpoint.cpp): the checkpoint's scene against the case (refused when
   // it is another), the particles, and the state of walls, insertions, events, probes, grids, series.
@@ -191,7 +186,6 @@ class Level {
   void insert_due(double t);
   void fire_event(size_t e);
   void rebuild();
-  void detach_ghosts();
   std::string non_finite(const char* what) const;  // names the first bad particle
   // Collective stop: throws GuardStop on every rank if any rank has a problem.
   void guard(const std::string& local_problem, double badness);
@@ -240,67 +234,20 @@ class Level {
   config::CaseSpec cs_;
   LevelOptions opt_;
   config::LevelSpec lvl_;
-  double dt_ = 0.0, alpha_ = 1.0, skin_ = 0.0;
-  Vec3 gravity_;
-  Vec3 dom_lo_, dom_hi_;
-  MaterialTable mt_;
-  ContactChoice choice_;
-  bool keep_history_ = true;
-  ForceRoutine forces_ = nullptr;
-  StabilityReport stab_;
-
-  Particles p_;
-  NeighborList nl_;
-  WallSet walls_;
-  ContactHistory pair_hist_, wall_hist_;
-  std::vector<double> stress6_;
-  std::vector<Vec3> wall_force_;
-  ForceContext fctx_;
-
-  std::vector<Inserter> ins_;
-  std::vector<MassFlowProbe> probes_;
-  std::vector<std::string> probe_events_;  // window_relative_to per probe
-  std::vector<GridRun> grids_;
-  std::vector<EventState> events_;
-
   Comm comm_;
-  Decomposition dec_;
-  GhostExchange ghosts_;
-  bool balance_ = true;
-  double r_max_ = 0.0;              // largest radius this level will hold
-  double ghost_cutoff_ = 0.0;       // 2 r_max + skin
-  int64_t global_particles_ = 0;    // over all ranks, as of the last rebuild
-
-  std::mt19937_64 rng_;
-  uint64_t step_ = 0;
-  int64_t next_id_ = 0;
-  int64_t removed_ = 0;
-  int64_t removed_by_[kExits] = {0, 0, 0};
-  double removed_mass_by_[kExits] = {0.0, 0.0, 0.0};
-  int64_t explicit_count_ = 0;      // the case's [[particles]] and [initial] particles (and the coupler's)
+  // The parts (level_parts.hpp); stepper_ refers to state_'s arrays and physics_' materials.
+  LevelPhysics physics_;
+  ParticleState state_;
+  Stepper stepper_;
+  Scene scene_;
+  RunState run_;                    // what a checkpoint carries besides the particles and the scene
   int64_t case_placed_ = 0;         // the case's own: [[particles]] and [initial] on this level
-  double explicit_mass_ = 0.0;
   CouplingReport coupling_restored_;  // a coupled level's counters from its checkpoint (inserted, worst overlap)
-  double removed_mass_ = 0.0;
-  uint64_t particle_steps_ = 0;
-  size_t max_particles_ = 0;
-  uint64_t rebuilds_ = 0;
-  bool rebuild_pending_ = true;
-  bool history_loaded_ = false;     // contact history came from a checkpoint, not the list
-  double end_time_ = -1.0;          // < 0: not known yet (waits for an event)
-  double next_stats_ = 0.0, next_snapshot_ = 0.0, next_checkpoint_ = 0.0;
-  int64_t snapshots_ = 0;
   bool interrupted_ = false;
   int64_t steps_this_process_ = 0;
 
-  // Output and reporting (not physics state).
   std::shared_ptr<spdlog::logger> log_;
-  mutable std::string output_error_;  // rank 0: the first output that could not be written
-  std::unique_ptr<io::SnapshotSeries> snaps_;
-  std::vector<std::string> series_rows_;
-  PhaseTimes times_;
-  double wall_start_ = 0.0, last_progress_ = -1e300, last_progress_t_ = 0.0;
-  double wall_seconds_before_ = 0.0;  // from earlier processes of a restarted run
+  Reporting out_;
   std::unique_ptr<Coupled, CoupledDeleter> coupled_;  // null unless LevelOptions::coupler is set
   std::unique_ptr<EnergyAccount> account_;            // null unless [output] energy_interval > 0
 };

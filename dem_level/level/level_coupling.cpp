@@ -82,13 +82,13 @@ void Level::CoupledDeleter::operator()(Coupled* c) const { delete c; }
 void Level::connect_coupler() {
   const double interval_case = cs_.coupling ? cs_.coupling->interval : 0.0;
   uint64_t start = 0;
-  if (step_ > 0) {  // continuing from a checkpoint: it must sit on an interval boundary
-    const uint64_t n = interval_case > 0.0 ? whole_steps(interval_case, dt_) : 0;
-    if (n == 0 || step_ % n != 0)
+  if (run_.step > 0) {  // continuing from a checkpoint: it must sit on an interval boundary
+    const uint64_t n = interval_case > 0.0 ? whole_steps(interval_case, physics_.dt) : 0;
+    if (n == 0 || run_.step % n != 0)
       throw std::runtime_error(fmt::format("level '{}': the checkpoint at step {} is not at the end of a coupling "
                                            "interval of the case's [coupling] ({} s = {} steps)",
-                                           lvl_.name, step_, interval_case, n));
-    start = step_ / n;
+                                           lvl_.name, run_.step, interval_case, n));
+    start = run_.step / n;
   }
   coupling::ClientOptions o;
   o.endpoint = opt_.coupler;
@@ -105,8 +105,8 @@ void Level::connect_coupler() {
 
   bus::Register reg;
   reg.set_level_name(lvl_.name);
-  reg.set_alpha(alpha_);
-  reg.set_dt(dt_);
+  reg.set_alpha(physics_.alpha);
+  reg.set_dt(physics_.dt);
   reg.set_ranks(static_cast<uint32_t>(comm_.size()));
   reg.set_case_hash(bus::case_hash_of_bytes(config::resolved_case_text(cs_.path)));
   std::error_code ec;
@@ -116,11 +116,11 @@ void Level::connect_coupler() {
   log_->info("level '{}': registering with the coupler at {} (interval {})", lvl_.name, o.endpoint, start);
   const bus::Welcome w = c->client->handshake(reg);
 
-  c->steps = whole_steps(w.coupling_interval(), dt_);
+  c->steps = whole_steps(w.coupling_interval(), physics_.dt);
   if (c->steps == 0)
     throw std::runtime_error(fmt::format("level '{}': the coupler's interval {} s is not a whole number of steps of "
                                          "dt = {} s (1 to 2^63)",
-                                         lvl_.name, w.coupling_interval(), dt_));
+                                         lvl_.name, w.coupling_interval(), physics_.dt));
   if (w.start_interval() != start)
     throw std::runtime_error(fmt::format("level '{}': the coupler starts at interval {}, this level at {}", lvl_.name,
                                          w.start_interval(), start));
@@ -142,12 +142,12 @@ void Level::connect_coupler() {
                coupling::to_string(link.role()), geo.cells(), geo.faces(), geo.top());
   }
   if (c->grids.empty()) log_->warn("level '{}' takes part in none of the coupler's {} grids", lvl_.name, w.grids_size());
-  c->material = cs_.insertions.empty() ? 0 : mt_.index_of(cs_.insertions.front().material);
-  c->density = mt_.material(c->material).density;
+  c->material = cs_.insertions.empty() ? 0 : physics_.mt.index_of(cs_.insertions.front().material);
+  c->density = physics_.mt.material(c->material).density;
   log_->info("coupled as level {} of {}: interval {} s = {} steps, {} cell samples per interval", w.level_index(),
              w.level_count(), w.coupling_interval(), c->steps, (c->steps + c->sample_every - 1) / c->sample_every);
   coupled_.reset(c.release());
-  rebuild_pending_ = true;  // the crossing candidates start at a rebuild
+  stepper_.rebuild_pending = true;  // the crossing candidates start at a rebuild
 }
 
 void Level::coupling_begin_step() {
@@ -156,9 +156,9 @@ void Level::coupling_begin_step() {
   c.wall0 = wall_seconds();
   bus::IntervalCommands cmd;
   {
-    PhaseTimer t(times_.coupling_wait);
+    PhaseTimer t(out_.times.coupling_wait);
     try {
-      cmd = c.client->commands(c.k, time(), step_);
+      cmd = c.client->commands(c.k, time(), run_.step);
     } catch (const coupling::CouplingError& e) {
       throw CouplingStop(e.what());
     }
@@ -173,58 +173,59 @@ void Level::coupling_begin_step() {
   } catch (const std::invalid_argument& e) {
     throw CouplingStop(e.what());
   }
-  PhaseTimer t(times_.coupling);
-  const size_t born_from = p_.n_local();  // ghosts are detached before any insertion: local = all
+  PhaseTimer t(out_.times.coupling);
+  const size_t born_from = state_.p.n_local();  // ghosts are detached before any insertion: local = all
   for (size_t l = 0; l < c.grids.size(); ++l) {
     uint64_t count = 0;
     double mass = 0.0;
     if (c.grids[l].role() == coupling::Role::Fine && of[l] && of[l]->insert_size() > 0) {
       // Every rank reads the same list: the ids agree, each rank keeps what it owns.
       std::vector<ParticleInit> list;
-      const int64_t first_id = next_id_;
+      const int64_t first_id = run_.next_id;
       try {
         list = coupling::GridLink::parse_inserts(*of[l], c.material, c.density, first_id);
       } catch (const std::invalid_argument& e) {
         throw CouplingStop(e.what());
       }
-      detach_ghosts();
-      const size_t first_new = p_.n_local();
+      state_.detach_ghosts(stepper_.keep_history);
+      const size_t first_new = state_.p.n_local();
       double r_big = 0.0;
       for (const auto& pi : list) {
         mass += sphere_mass(pi.density, pi.radius);
         r_big = std::max(r_big, pi.radius);
-        if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
+        if (stepper_.dec.owner(pi.x) == comm_.rank()) add_particle(pi);
       }
       count = list.size();
       c.inserted += count;
-      c.worst_overlap = std::max(c.worst_overlap, insert_overlap(p_, first_new, 2.0 * std::max(r_max_, r_big)));
+      const double reach = 2.0 * std::max(stepper_.r_max, r_big);
+      c.worst_overlap = std::max(c.worst_overlap, insert_overlap(state_.p, first_new, reach));
       check_inserted_walls(c, c.grids[l].geometry(), first_new);
-      // Not `+= count`: add_particle already raised next_id_, on the owning rank only. The ranks must agree on
+      // Not `+= count`: add_particle already raised run_.next_id, on the owning rank only. The ranks must agree on
       // ids (contact histories are keyed by them).
-      next_id_ = first_id + static_cast<int64_t>(count);
-      explicit_count_ += static_cast<int64_t>(count);  // requested and inserted, like the case's own particles
-      explicit_mass_ += mass;
-      rebuild_pending_ = true;
-      if (r_big > r_max_) {  // the same on every rank
+      run_.next_id = first_id + static_cast<int64_t>(count);
+      run_.explicit_count += static_cast<int64_t>(count);  // requested and inserted, like the case's own particles
+      run_.explicit_mass += mass;
+      stepper_.rebuild_pending = true;
+      if (r_big > stepper_.r_max) {  // the same on every rank
         log_->warn("coupling: inserted radius {:.4g} m exceeds the largest radius {:.4g} m the level was set up for",
-                   r_big, r_max_);
-        r_max_ = r_big;
-        if (skin_ <= 0.0) {
-          skin_ = 0.5 * r_max_;
-          nl_.set_skin(skin_);
+                   r_big, stepper_.r_max);
+        stepper_.r_max = r_big;
+        if (stepper_.skin <= 0.0) {
+          stepper_.skin = 0.5 * stepper_.r_max;
+          state_.nl.set_skin(stepper_.skin);
         }
-        ghost_cutoff_ = 2.0 * r_max_ + skin_;
+        stepper_.ghost_cutoff = 2.0 * stepper_.r_max + stepper_.skin;
       }
     }
     try {
-      c.grids[l].begin_interval(of[l], p_, comm_, count, mass);
+      c.grids[l].begin_interval(of[l], state_.p, comm_, count, mass);
     } catch (const std::invalid_argument& e) {
       throw CouplingStop(e.what());
     }
   }
   // A middle level of a hierarchy: what the coupler inserted may lie inside the region this level
   // feeds as the coarse level. It enters that region by birth, counted after the intervals' resets.
-  for (size_t i = born_from; i < p_.n_local(); ++i) coupling_born(i);
+  for (size_t i = born_from; i < state_.p.n_local(); ++i) coupling_born(i);
 }
 
 void Level::check_inserted_walls(Coupled& c, const bus::CouplingGeometry& geo, size_t first) {
@@ -232,24 +233,26 @@ void Level::check_inserted_walls(Coupled& c, const bus::CouplingGeometry& geo, s
   const auto& ip = geo.grid().inside_point();
   const bool can_reach = ip.size() == 3;
   const Vec3 inside = can_reach ? Vec3{ip[0], ip[1], ip[2]} : Vec3{};
-  for (size_t i = first; i < p_.n_local(); ++i) {
-    c.worst_wall_overlap = std::max(c.worst_wall_overlap, walls_.overlap(p_.x[i], p_.radius[i]) / (2.0 * p_.radius[i]));
-    if (can_reach && walls_.crosses(inside, p_.x[i])) {
+  const Particles& p = state_.p;
+  for (size_t i = first; i < p.n_local(); ++i) {
+    const double overlap = state_.walls.overlap(p.x[i], p.radius[i]) / (2.0 * p.radius[i]);
+    c.worst_wall_overlap = std::max(c.worst_wall_overlap, overlap);
+    if (can_reach && state_.walls.crosses(inside, p.x[i])) {
       if (c.outside_walls == 0)
-        log_->warn("coupling: inserted particle {} at ({:.5g}, {:.5g}, {:.5g}) m lies outside the walls", p_.id[i],
-                   p_.x[i].x, p_.x[i].y, p_.x[i].z);
+        log_->warn("coupling: inserted particle {} at ({:.5g}, {:.5g}, {:.5g}) m lies outside the walls", p.id[i],
+                   p.x[i].x, p.x[i].y, p.x[i].z);
       ++c.outside_walls;
     }
   }
 }
 
 void Level::coupling_after_drift() {
-  PhaseTimer t(times_.coupling);
-  for (auto& g : coupled_->grids) g.after_drift(p_);
+  PhaseTimer t(out_.times.coupling);
+  for (auto& g : coupled_->grids) g.after_drift(state_.p);
 }
 
 void Level::coupling_born(size_t i) {
-  for (auto& g : coupled_->grids) g.born(p_, i);
+  for (auto& g : coupled_->grids) g.born(state_.p, i);
 }
 
 bool Level::coupling_wants_stress() const {
@@ -259,21 +262,21 @@ bool Level::coupling_wants_stress() const {
 }
 
 void Level::coupling_forces() {
-  PhaseTimer t(times_.coupling);
-  for (const auto& g : coupled_->grids) g.add_forces(p_);
+  PhaseTimer t(out_.times.coupling);
+  for (const auto& g : coupled_->grids) g.add_forces(state_.p);
 }
 
 bool Level::coupling_removes(size_t i) {
   for (auto& g : coupled_->grids)
-    if (g.leaves(p_.x[i])) {
-      g.count_removed(p_.x[i], p_.mass[i]);
+    if (g.leaves(state_.p.x[i])) {
+      g.count_removed(state_.p.x[i], state_.p.mass[i]);
       return true;
     }
   return false;
 }
 
 void Level::coupling_refresh() {
-  for (auto& g : coupled_->grids) g.refresh(p_, skin_);
+  for (auto& g : coupled_->grids) g.refresh(state_.p, stepper_.skin);
 }
 
 bool Level::coupling_finished() const { return coupled_->finished; }
@@ -305,28 +308,28 @@ void Level::coupling_end_step() {
   const bool sample = coupling_wants_stress();
   ++c.done;
   if (sample) {
-    PhaseTimer t(times_.coupling);
-    for (auto& g : c.grids) g.sample(p_, stress6_, comm_);
+    PhaseTimer t(out_.times.coupling);
+    for (auto& g : c.grids) g.sample(state_.p, state_.stress6, comm_);
   }
   if (c.done < c.steps) {
-    c.client->keepalive(time(), step_);
+    c.client->keepalive(time(), run_.step);
     return;
   }
   bus::IntervalStats s;
   // The checkpoint first: the statistics tell the coupler it is on disk (its consistent set).
   if (c.checkpoint && !opt_.out_dir.empty()) {
-    PhaseTimer t(times_.output);
+    PhaseTimer t(out_.times.output);
     const auto path = c.checkpoint_path.empty() ? opt_.out_dir / "checkpoint.h5" : std::filesystem::path(c.checkpoint_path);
     write_checkpoint(path);
     s.set_checkpoint(path.string());
-    rebuild_pending_ = true;  // as a restarted run will
+    stepper_.rebuild_pending = true;  // as a restarted run will
   }
   {
-    PhaseTimer t(times_.coupling);
+    PhaseTimer t(out_.times.coupling);
     s.set_interval(c.k);
     s.set_sim_time(time());
-    for (auto& g : c.grids) *s.add_grids() = g.finish(p_, comm_, r_max_);
-    s.set_particles(static_cast<uint64_t>(comm_.sum(static_cast<int64_t>(p_.n_local()))));
+    for (auto& g : c.grids) *s.add_grids() = g.finish(state_.p, comm_, stepper_.r_max);
+    s.set_particles(static_cast<uint64_t>(comm_.sum(static_cast<int64_t>(state_.p.n_local()))));
     s.set_wall_seconds(wall_seconds() - c.wall0);
     c.client->send_stats(s);
   }

@@ -54,16 +54,17 @@ constexpr const char* kSeriesHeader =
 }  // namespace
 
 RunStatus Level::run() {
-  wall_start_ = wall_seconds();
-  const double half = 0.5 * dt_;
+  out_.wall_start = wall_seconds();
+  const double half = 0.5 * physics_.dt;
   if (opt_.restart.empty()) {
     const auto& o = cs_.output;
-    next_stats_ = o.stats_interval;
-    next_snapshot_ = o.snapshot_interval;
-    next_checkpoint_ = o.checkpoint_interval;
-    series_rows_.push_back(series_row());
+    run_.next_stats = o.stats_interval;
+    run_.next_snapshot = o.snapshot_interval;
+    run_.next_checkpoint = o.checkpoint_interval;
+    out_.series_rows.push_back(series_row());
   }
-  if (end_time_ >= 0.0) log_->info("running to t = {:.4g} s ({} steps)", end_time_, std::llround(end_time_ / dt_));
+  if (run_.end_time >= 0.0)
+    log_->info("running to t = {:.4g} s ({} steps)", run_.end_time, std::llround(run_.end_time / physics_.dt));
   else log_->info("running until event '{}' + {} s", cs_.time.end_event, cs_.time.end_plus);
 
   RunStatus status = RunStatus::Completed;
@@ -73,7 +74,7 @@ RunStatus Level::run() {
     while (true) {
       // A coupled level ends with an interval, the same one on every level (whatever its dt): one cut short has
       // received and inserted the coupler's particles but never reports them, and the coupler would take them back.
-      if (end_time_ >= 0.0 && (coupled_ ? coupling_reached(end_time_) : time() >= end_time_ - half)) break;
+      if (run_.end_time >= 0.0 && (coupled_ ? coupling_reached(run_.end_time) : time() >= run_.end_time - half)) break;
       if (comm_.any(stopping())) {
         status = RunStatus::Interrupted;
         reason = "interrupted by a signal";
@@ -124,7 +125,7 @@ RunStatus Level::run() {
 void Level::finish_run(RunStatus status, const std::string& reason, bool output_failed) {
   if (coupled_) coupling_bye(status, reason);
   if (status == RunStatus::Completed)
-    for (auto& in : ins_) in.abandon_pending();
+    for (auto& in : scene_.ins) in.abandon_pending();
   progress(true);
   try {
     if (output_failed) {  // nothing more but the summary: every further file would fail the same way
@@ -133,7 +134,7 @@ void Level::finish_run(RunStatus status, const std::string& reason, bool output_
     } else {
       // Timed as output, so that the summary's time stepping excludes the final files (a million
       // particles' checkpoint takes seconds).
-      PhaseTimer t(times_.output);
+      PhaseTimer t(out_.times.output);
       write_outputs(true);
       if (!opt_.out_dir.empty() && status != RunStatus::Failed) write_checkpoint(opt_.out_dir / "checkpoint.h5");
     }
@@ -143,15 +144,15 @@ void Level::finish_run(RunStatus status, const std::string& reason, bool output_
     status = RunStatus::Failed;
   }
   // The log file may be on the full disk too, and a quiet level has no console: stderr always tells.
-  if (status == RunStatus::Failed && comm_.rank() == 0 && (output_failed || !output_error_.empty()))
+  if (status == RunStatus::Failed && comm_.rank() == 0 && (output_failed || !out_.output_error.empty()))
     std::fprintf(stderr, "dem_level: level '%s' failed: %s%s\n", lvl_.name.c_str(), reason.c_str(),
-                 output_error_.empty() || reason.find(output_error_) != std::string::npos
+                 out_.output_error.empty() || reason.find(out_.output_error) != std::string::npos
                      ? ""
-                     : ("; and " + output_error_).c_str());
+                     : ("; and " + out_.output_error).c_str());
   const auto b = mass_balance();
   log_->info("{}: t = {:.4f} s, {} steps, {} particles present, {} removed, {} failed to place", to_string(status),
-             time(), step_, b.present, b.removed, b.failed);
-  for (const auto& pr : probes_) {
+             time(), run_.step, b.present, b.removed, b.failed);
+  for (const auto& pr : scene_.probes) {
     const auto w = pr.window_stats();
     if (w.samples > 0)
       log_->info("probe '{}': mass flow {:.4f} +- {:.4f} kg/s over {} samples; mean's 95 % CI +- {:.4f} kg/s ({})",
@@ -166,37 +167,37 @@ void Level::rank0_output(const std::function<void()>& write) const {
   try {
     write();
   } catch (const std::exception& e) {
-    if (output_error_.empty()) output_error_ = e.what();
+    if (out_.output_error.empty()) out_.output_error = e.what();
   }
 }
 
 void Level::sync_output() const {
-  if (!comm_.any(!output_error_.empty())) return;
-  throw OutputStop(comm_.serial() ? output_error_ : comm_.bcast(output_error_, 0));
+  if (!comm_.any(!out_.output_error.empty())) return;
+  throw OutputStop(comm_.serial() ? out_.output_error : comm_.bcast(out_.output_error, 0));
 }
 
 void Level::sample_energy() {
   // The account measures between steps with current lists; a pending rebuild (a test moved
   // particles) would change the run, so the sample waits a step.
-  if (!account_ || !account_->due(step_) || comm_.any(rebuild_pending_)) return;
-  account_->sample(step_, time(), energy(), comm_);
+  if (!account_ || !account_->due(run_.step) || comm_.any(stepper_.rebuild_pending)) return;
+  account_->sample(run_.step, time(), energy(), comm_);
 }
 
 void Level::after_step() {
   const double t = time();
-  const double half = 0.5 * dt_;
+  const double half = 0.5 * physics_.dt;
   bool grid_output = false;
   if (account_) {
-    PhaseTimer measure(times_.measure);
+    PhaseTimer measure(out_.times.measure);
     sample_energy();
   }
   {
-    PhaseTimer measure(times_.measure);
-    for (auto& pr : probes_)
+    PhaseTimer measure(out_.times.measure);
+    for (auto& pr : scene_.probes)
       if (pr.sample_due(t)) pr.close_sample(t, comm_.sum(pr.open_mass()));
-    for (auto& g : grids_) {
-      if (step_ % g.sample_every == 0) {
-        g.grid.local_sample(p_, stress6_, g.sums, g.maxs);
+    for (auto& g : scene_.grids) {
+      if (run_.step % g.sample_every == 0) {
+        g.grid.local_sample(state_.p, state_.stress6, g.sums, g.maxs);
         comm_.sum_in_place(g.sums.data(), g.sums.size());
         comm_.max_in_place(g.maxs.data(), g.maxs.size());
         g.grid.add_sample(g.sums, g.maxs);
@@ -211,20 +212,20 @@ void Level::after_step() {
       }
     }
   }
-  PhaseTimer output(times_.output);
+  PhaseTimer output(out_.times.output);
   if (grid_output) sync_output();
   const auto& o = cs_.output;
-  if (o.stats_interval > 0.0 && t >= next_stats_ - half) {
-    series_rows_.push_back(series_row());
-    next_stats_ += o.stats_interval;
+  if (o.stats_interval > 0.0 && t >= run_.next_stats - half) {
+    out_.series_rows.push_back(series_row());
+    run_.next_stats += o.stats_interval;
   }
-  if (o.snapshot_interval > 0.0 && t >= next_snapshot_ - half) {
+  if (o.snapshot_interval > 0.0 && t >= run_.next_snapshot - half) {
     write_snapshot();
-    ++snapshots_;
-    next_snapshot_ += o.snapshot_interval;
+    ++run_.snapshots;
+    run_.next_snapshot += o.snapshot_interval;
   }
-  if (o.checkpoint_interval > 0.0 && t >= next_checkpoint_ - half) {
-    next_checkpoint_ += o.checkpoint_interval;
+  if (o.checkpoint_interval > 0.0 && t >= run_.next_checkpoint - half) {
+    run_.next_checkpoint += o.checkpoint_interval;
     if (!opt_.out_dir.empty()) {
       write_checkpoint(opt_.out_dir / "checkpoint.h5");
       write_outputs(false);
@@ -232,27 +233,28 @@ void Level::after_step() {
     }
     // The restarted run rebuilds its lists at the next step; so does this one,
     // which keeps both bit-identical.
-    rebuild_pending_ = true;
+    stepper_.rebuild_pending = true;
   }
 }
 
 std::string Level::series_row() const {
   const auto b = mass_balance();
-  int64_t contacts[2] = {fctx_.stats.pair_contacts, fctx_.stats.wall_contacts};
+  int64_t contacts[2] = {stepper_.fctx.stats.pair_contacts, stepper_.fctx.stats.wall_contacts};
   comm_.sum_in_place(contacts, 2);
   return fmt::format("{:.6f},{},{:.9g},{},{},{},{},{},{},{},{}", time(), b.present, kinetic_energy(), contacts[0],
-                     contacts[1], b.requested, b.inserted, b.removed, b.failed, b.pending, rebuilds_);
+                     contacts[1], b.requested, b.inserted, b.removed, b.failed, b.pending, run_.rebuilds);
 }
 
 void Level::write_snapshot() {
   // Gathered on rank 0 in rank order.
   std::vector<char> buf;
   ByteWriter w(buf);
-  for (size_t i = 0; i < p_.n_local(); ++i) {
-    w.put(p_.x[i]); w.put(p_.v[i]); w.put(p_.omega[i]); w.put(p_.radius[i]); w.put(p_.id[i]);
+  const Particles& p = state_.p;
+  for (size_t i = 0; i < p.n_local(); ++i) {
+    w.put(p.x[i]); w.put(p.v[i]); w.put(p.omega[i]); w.put(p.radius[i]); w.put(p.id[i]);
   }
   const auto all = comm_.gather0(buf);
-  if (snaps_) rank0_output([&] { write_snapshot_file(all); });
+  if (out_.snaps) rank0_output([&] { write_snapshot_file(all); });
   sync_output();
 }
 
@@ -265,17 +267,17 @@ void Level::write_snapshot_file(const std::vector<char>& all) {
     x.push_back(rd.get<Vec3>()); v.push_back(rd.get<Vec3>()); om.push_back(rd.get<Vec3>());
     r.push_back(rd.get<double>()); id.push_back(rd.get<int64_t>());
   }
-  snaps_->write(time(), step_, x.size(), x.data(), v.data(), om.data(), r.data(), id.data());
+  out_.snaps->write(time(), run_.step, x.size(), x.data(), v.data(), om.data(), r.data(), id.data());
 }
 
 void Level::write_outputs(bool final) {
   if (opt_.out_dir.empty()) return;
-  const bool need_final_snapshot = comm_.rank() != 0 || !snaps_ || snaps_->entries().empty() ||
-                                   snaps_->entries().back().time < time();
+  const bool need_final_snapshot = comm_.rank() != 0 || !out_.snaps || out_.snaps->entries().empty() ||
+                                   out_.snaps->entries().back().time < time();
   if (final && comm_.any(comm_.rank() == 0 && need_final_snapshot)) write_snapshot();
   // The file ends with the state at the end of this process (replacing a row of
   // the same time); that row is not part of the checkpointed series.
-  std::vector<std::string> rows = series_rows_;
+  std::vector<std::string> rows = out_.series_rows;
   const std::string last = final ? series_row() : std::string();
   if (comm_.rank() == 0) rank0_output([&] { write_series_files(rows, last, final); });
   sync_output();
@@ -291,16 +293,18 @@ void Level::write_series_files(std::vector<std::string> rows, const std::string&
   for (const auto& r : rows) csv += r + "\n";
   io::write_file_atomic(opt_.out_dir / "series.csv", csv);
   if (account_) io::write_file_atomic(opt_.out_dir / "energy.csv", account_->csv());
-  for (const auto& pr : probes_) io::write_file_atomic(opt_.out_dir / "probes" / (pr.params().name + ".csv"), pr.csv());
+  for (const auto& pr : scene_.probes)
+    io::write_file_atomic(opt_.out_dir / "probes" / (pr.params().name + ".csv"), pr.csv());
 }
 
 void Level::write_summary(const std::string& status, const std::string& reason) const {
   if (opt_.out_dir.empty()) return;
   // Collective part first: every rank contributes, rank 0 writes.
   const auto b = mass_balance();
-  double sums[12] = {times_.integrate, times_.neighbor, times_.force, times_.comm, times_.measure, times_.insert,
-                     times_.output, static_cast<double>(nl_.pairs()), static_cast<double>(memory_bytes()),
-                     static_cast<double>(p_.n_local()), times_.coupling, times_.coupling_wait};
+  const PhaseTimes& pt = out_.times;
+  double sums[12] = {pt.integrate, pt.neighbor, pt.force, pt.comm, pt.measure, pt.insert, pt.output,
+                     static_cast<double>(state_.nl.pairs()), static_cast<double>(memory_bytes()),
+                     static_cast<double>(state_.p.n_local()), pt.coupling, pt.coupling_wait};
   comm_.sum_in_place(sums, 12);
   const CouplingReport cr = coupling_report();
   if (comm_.rank() == 0) rank0_output([&] { write_summary_file(status, reason, b, sums, cr); });
@@ -311,7 +315,7 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
                                const double* sums, const CouplingReport& cr) const {
   using nlohmann::json;
   const double nr = static_cast<double>(comm_.size());
-  const double wall = wall_seconds_before_ + (wall_seconds() - wall_start_);
+  const double wall = run_.wall_seconds_before + (wall_seconds() - out_.wall_start);
   json j;
   j["status"] = status;
   j["reason"] = reason;
@@ -319,31 +323,32 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
   j["title"] = cs_.title;
   j["wall_seconds"] = wall;
   j["simulated_time"] = time();
-  j["steps"] = step_;
-  j["end_time"] = end_time_;
+  j["steps"] = run_.step;
+  j["end_time"] = run_.end_time;
   json lv;
   lv["name"] = lvl_.name;
-  lv["alpha"] = alpha_;
-  lv["dt"] = dt_;
+  lv["alpha"] = physics_.alpha;
+  lv["dt"] = physics_.dt;
   lv["ranks"] = lvl_.ranks;
-  lv["particles_max"] = max_particles_;
+  lv["particles_max"] = run_.max_particles;
   lv["particles_final"] = b.present;
-  lv["particle_steps"] = particle_steps_;
-  lv["particle_steps_per_second"] = wall > 0.0 ? static_cast<double>(particle_steps_) / wall : 0.0;
-  lv["neighbour_rebuilds"] = rebuilds_;
-  lv["skin"] = skin_;
-  lv["rayleigh_time"] = stab_.rayleigh_time;
-  lv["hertz_contact_time"] = stab_.contact_time;
-  lv["impact_speed"] = stab_.impact_speed;
-  lv["steps_per_contact"] = stab_.steps_per_contact;
-  lv["dt_guard_overridden"] = stab_.overridden;
+  lv["particle_steps"] = run_.particle_steps;
+  lv["particle_steps_per_second"] = wall > 0.0 ? static_cast<double>(run_.particle_steps) / wall : 0.0;
+  lv["neighbour_rebuilds"] = run_.rebuilds;
+  lv["skin"] = stepper_.skin;
+  lv["rayleigh_time"] = physics_.stab.rayleigh_time;
+  lv["hertz_contact_time"] = physics_.stab.contact_time;
+  lv["impact_speed"] = physics_.stab.impact_speed;
+  lv["steps_per_contact"] = physics_.stab.steps_per_contact;
+  lv["dt_guard_overridden"] = physics_.stab.overridden;
   // Where the time went (mean over ranks), and what the neighbour search and memory look like now.
   const double n_now = std::max(1.0, sums[9]);
   lv["performance"] = {
       {"seconds", {{"integrate", sums[0] / nr}, {"neighbor", sums[1] / nr}, {"force", sums[2] / nr},
                    {"comm", sums[3] / nr}, {"measure", sums[4] / nr}, {"insert", sums[5] / nr},
                    {"output", sums[6] / nr}, {"coupling", sums[10] / nr}, {"coupling_wait", sums[11] / nr}}},
-      {"rebuilds_per_1000_steps", step_ > 0 ? 1000.0 * static_cast<double>(rebuilds_) / static_cast<double>(step_) : 0.0},
+      {"rebuilds_per_1000_steps",
+       run_.step > 0 ? 1000.0 * static_cast<double>(run_.rebuilds) / static_cast<double>(run_.step) : 0.0},
       {"neighbour_pairs_per_particle", sums[7] / n_now},
       {"bytes_per_particle", sums[8] / n_now},
       {"ranks", comm_.size()}};
@@ -370,7 +375,7 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
                     {"max_rise_of_in_motion", e.in_motion > 0.0 ? e.max_rise / e.in_motion : 0.0}};
   }
   j["levels"] = json::array({lv});
-  j["probes"] = probe_entries(probes_);
+  j["probes"] = probe_entries(scene_.probes);
   j["mass_balance"] = {{"requested", b.requested},       {"inserted", b.inserted},
                        {"present", b.present},           {"removed", b.removed},
                        {"failed_to_place", b.failed},    {"pending", b.pending},
@@ -380,10 +385,10 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
     j["mass_balance"]["removed_by"][to_string(static_cast<Exit>(e))] = {{"count", b.removed_by[e]},
                                                                          {"mass_kg", b.removed_mass_by[e]}};
   json ev = json::array();
-  for (size_t e = 0; e < events_.size(); ++e)
+  for (size_t e = 0; e < scene_.events.size(); ++e)
     ev.push_back({{"name", cs_.events[e].name},
-                  {"fired", events_[e].fired},
-                  {"time", events_[e].fired ? json(events_[e].fired_at) : json()}});
+                  {"fired", scene_.events[e].fired},
+                  {"time", scene_.events[e].fired ? json(scene_.events[e].fired_at) : json()}});
   j["events"] = ev;
   io::write_file_atomic(opt_.out_dir / "summary.json", j.dump(2) + "\n");
 }
@@ -391,25 +396,25 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
 void Level::progress(bool force) {
   if (opt_.quiet || comm_.rank() != 0) return;
   const double now = wall_seconds();
-  if (!force && now - last_progress_ < cs_.time.progress_interval) return;
-  const double wall = now - wall_start_;
-  const double t = time();
-  const double rate = wall > 0.0 ? static_cast<double>(particle_steps_) / (wall + wall_seconds_before_) : 0.0;
+  if (!force && now - out_.last_progress < cs_.time.progress_interval) return;
+  const double wall = now - out_.wall_start;
+  const double t = time(), end = run_.end_time;
+  const double rate = wall > 0.0 ? static_cast<double>(run_.particle_steps) / (wall + run_.wall_seconds_before) : 0.0;
   // ETA from the simulated-time speed of the last interval.
   std::string eta = "ETA ?";
-  if (end_time_ >= 0.0 && t >= end_time_ - 0.5 * dt_) {
+  if (end >= 0.0 && t >= end - 0.5 * physics_.dt) {
     eta = "done";
-  } else if (end_time_ >= 0.0 && last_progress_ > -1e299 && now > last_progress_ && t > last_progress_t_) {
-    const double speed = (t - last_progress_t_) / (now - last_progress_);
-    eta = "ETA " + human_duration((end_time_ - t) / speed);
-  } else if (end_time_ < 0.0) {
+  } else if (end >= 0.0 && out_.last_progress > -1e299 && now > out_.last_progress && t > out_.last_progress_t) {
+    const double speed = (t - out_.last_progress_t) / (now - out_.last_progress);
+    eta = "ETA " + human_duration((end - t) / speed);
+  } else if (end < 0.0) {
     eta = fmt::format("end: event '{}' + {} s", cs_.time.end_event, cs_.time.end_plus);
   }
   log_->info("t = {:.4f} s{} | {} particles | {:.3g} particle-steps/s | {}", t,
-             end_time_ >= 0.0 ? fmt::format(" / {:.4f} s ({:.0f} %)", end_time_, 100.0 * t / end_time_) : "",
-             global_particles_, rate, eta);
-  last_progress_t_ = t;
-  last_progress_ = now;
+             end >= 0.0 ? fmt::format(" / {:.4f} s ({:.0f} %)", end, 100.0 * t / end) : "",
+             stepper_.global_particles, rate, eta);
+  out_.last_progress_t = t;
+  out_.last_progress = now;
 }
 
 }  // namespace mlcg

@@ -49,15 +49,37 @@ const char* to_string(RunStatus s) {
 }
 
 Level::Level(const config::CaseSpec& cs, LevelOptions opt)
-    : cs_(cs), opt_(std::move(opt)), fctx_{p_, nl_, walls_, mt_, 0.0, stress6_, wall_force_, {}},
-      comm_(opt_.single_rank) {
+    : cs_(cs), opt_(std::move(opt)), comm_(opt_.single_rank), stepper_(state_, physics_.mt) {
   setup();
 }
 
 Level::~Level() = default;
 
 void Level::setup() {
-  // Logging: console (unless quiet) and, with a run folder, its log file.
+  setup_logging();
+  select_level();
+  setup_contact();
+  setup_decomposition();
+  setup_walls();
+  setup_insertions();
+  // In a hierarchy the case's particles fill the coarsest level only; finer
+  // levels get theirs from the coupler (their kinds still set the guards).
+  bool fills_scene = true;
+  for (const auto& l : cs_.levels) fills_scene = fills_scene && (!cs_.coupling || l.alpha <= physics_.alpha);
+  std::vector<ParticleKind> explicit_kinds;
+  std::vector<PlacedParticle> placed;  // for the initial-overlap check
+  place_case_particles(fills_scene, explicit_kinds, placed);
+  const double r_max = setup_stability(explicit_kinds, placed);
+  if (!fills_scene) scene_.ins.clear();
+  setup_skin(r_max);
+  setup_measurements();
+  scene_.events.assign(cs_.events.size(), Scene::Event{});
+  resolve_end_time();
+  start_state();
+}
+
+void Level::setup_logging() {
+  // Console (unless quiet) and, with a run folder, its log file.
   // Rank 0 speaks for the level; other ranks report only their errors.
   std::vector<spdlog::sink_ptr> sinks;
   if (comm_.rank() == 0) {
@@ -73,7 +95,10 @@ void Level::setup() {
   log_->set_pattern("[%H:%M:%S] %v");
   log_->flush_on(spdlog::level::info);  // `tail -f log.txt` shows each line as it happens (they are seconds apart)
   if (comm_.rank() != 0) log_->set_level(spdlog::level::err);
+}
 
+void Level::select_level() {
+  // The [[levels]] entry this process runs, and what the time loop takes from the case as plain numbers.
   lvl_ = cs_.levels.front();
   if (!opt_.level.empty()) {
     const auto it = std::find_if(cs_.levels.begin(), cs_.levels.end(),
@@ -86,71 +111,76 @@ void Level::setup() {
     }
     lvl_ = *it;
   }
-  dt_ = lvl_.dt;
-  alpha_ = lvl_.alpha;
-  fctx_.dt = dt_;
-  gravity_ = cs_.gravity;
-  dom_lo_ = cs_.domain.min;
-  dom_hi_ = cs_.domain.max;
-  rng_.seed(cs_.seed);
+  physics_.dt = lvl_.dt;
+  physics_.alpha = lvl_.alpha;
+  stepper_.fctx.dt = physics_.dt;
+  physics_.gravity = cs_.gravity;
+  physics_.dom_lo = cs_.domain.min;
+  physics_.dom_hi = cs_.domain.max;
+  run_.rng.seed(cs_.seed);
+}
 
-  mt_ = materials_of_case(cs_);
-
-  choice_.tangential_history = cs_.contact.tangential == "history";
-  choice_.rolling_cdt = cs_.contact.rolling == "cdt";
-  choice_.clamp_normal = cs_.contact.clamp_normal;
-  forces_ = select_force_routine(choice_);
-  keep_history_ = model_keeps_history(choice_);
+void Level::setup_contact() {
+  // The materials, and the force routine compiled for the case's contact model.
+  physics_.mt = materials_of_case(cs_);
+  stepper_.choice.tangential_history = cs_.contact.tangential == "history";
+  stepper_.choice.rolling_cdt = cs_.contact.rolling == "cdt";
+  stepper_.choice.clamp_normal = cs_.contact.clamp_normal;
+  stepper_.forces = select_force_routine(stepper_.choice);
+  stepper_.keep_history = model_keeps_history(stepper_.choice);
   log_->info("level '{}': alpha = {}, dt = {:.4g} s, contact model hertz + tangential {} + rolling {}{}", lvl_.name,
-             alpha_, dt_, cs_.contact.tangential, cs_.contact.rolling,
-             choice_.clamp_normal ? " (normal force clamped)" : "");
+             physics_.alpha, physics_.dt, cs_.contact.tangential, cs_.contact.rolling,
+             stepper_.choice.clamp_normal ? " (normal force clamped)" : "");
+}
 
+void Level::setup_decomposition() {
   // The process grid; the boundaries start uniform and are balanced at the first rebuild.
-  std::array<int, 3> grid = Decomposition::default_grid(comm_.size(), dom_lo_, dom_hi_, gravity_);
+  std::array<int, 3> grid =
+      Decomposition::default_grid(comm_.size(), physics_.dom_lo, physics_.dom_hi, physics_.gravity);
   if (!lvl_.processors.empty()) grid = {lvl_.processors[0], lvl_.processors[1], lvl_.processors[2]};
   if (grid[0] * grid[1] * grid[2] != comm_.size())
     throw std::runtime_error(fmt::format("{}: levels[{}].processors = [{}, {}, {}] needs {} MPI ranks, but the level "
                                          "runs on {}",
                                          lvl_.loc.str(), lvl_.name, grid[0], grid[1], grid[2],
                                          grid[0] * grid[1] * grid[2], comm_.size()));
-  dec_ = Decomposition(grid, dom_lo_, dom_hi_);
-  balance_ = lvl_.balance;
+  stepper_.dec = Decomposition(grid, physics_.dom_lo, physics_.dom_hi);
+  stepper_.balance = lvl_.balance;
   if (!comm_.serial())
     log_->info("MPI: {} ranks as a {} x {} x {} grid{}", comm_.size(), grid[0], grid[1], grid[2],
-               balance_ ? ", boundaries balanced by particle count" : "");
+               stepper_.balance ? ", boundaries balanced by particle count" : "");
+}
 
-  setup_walls();
-  setup_insertions();
-  // In a hierarchy the case's particles fill the coarsest level only; finer
-  // levels get theirs from the coupler (their kinds still set the guards).
-  bool fills_scene = true;
-  for (const auto& l : cs_.levels) fills_scene = fills_scene && (!cs_.coupling || l.alpha <= alpha_);
-  std::vector<ParticleKind> explicit_kinds;
-  std::vector<PlacedParticle> placed;  // for the initial-overlap check
+void Level::place_case_particles(bool fills_scene, std::vector<ParticleKind>& kinds,
+                                 std::vector<PlacedParticle>& placed) {
+  // The case's [[particles]] and [initial] state: added only when this level fills the scene, but
+  // always listed (kinds for the guard, positions for the initial-overlap check).
   for (const auto& ps : cs_.particles) {
     ParticleInit pi;
-    pi.id = next_id_++;
-    pi.material = mt_.index_of(ps.material);
-    pi.radius = ps.radius * alpha_;
-    pi.density = mt_.material(pi.material).density;
+    pi.id = run_.next_id++;
+    pi.material = physics_.mt.index_of(ps.material);
+    pi.radius = ps.radius * physics_.alpha;
+    pi.density = physics_.mt.material(pi.material).density;
     pi.x = ps.position;
     pi.v = ps.velocity;
     pi.omega = ps.omega;
-    explicit_kinds.push_back({pi.material, pi.radius, pi.radius, norm(pi.v)});
+    kinds.push_back({pi.material, pi.radius, pi.radius, norm(pi.v)});
     placed.push_back({{pi.x, pi.radius}, pi.material, pi.id});
     if (!fills_scene) continue;
-    ++explicit_count_;
-    explicit_mass_ += sphere_mass(pi.density, pi.radius);
-    if (dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
+    ++run_.explicit_count;
+    run_.explicit_mass += sphere_mass(pi.density, pi.radius);
+    if (stepper_.dec.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
-  if (cs_.initial) load_initial_state(explicit_kinds, placed, fills_scene && opt_.restart.empty());
-  case_placed_ = explicit_count_;  // before a checkpoint or the coupler adds to the count
+  if (cs_.initial) load_initial_state(kinds, placed, fills_scene && opt_.restart.empty());
+  case_placed_ = run_.explicit_count;  // before a checkpoint or the coupler adds to the count
+}
 
-  // Stability guard, over every kind of particle this level will hold.
+double Level::setup_stability(const std::vector<ParticleKind>& explicit_kinds,
+                              const std::vector<PlacedParticle>& placed) {
+  // The guard, over every kind of particle this level will hold; returns the largest radius.
   std::vector<ParticleKind> kinds;
   double r_max = 0.0;
   for (const auto& in : cs_.insertions) {  // the kinds `mlcg check` previews too (stability_preview.hpp)
-    kinds.push_back(insertion_kind(in, alpha_, mt_));
+    kinds.push_back(insertion_kind(in, physics_.alpha, physics_.mt));
     r_max = std::max(r_max, kinds.back().r_max);
   }
   for (const auto& k : merge_kinds(explicit_kinds)) {  // one kind per particle would make the guard O(N^2)
@@ -158,57 +188,59 @@ void Level::setup() {
     r_max = std::max(r_max, k.r_max);
   }
   std::vector<int> wall_mats;
-  for (size_t w = 0; w < walls_.walls(); ++w) wall_mats.push_back(walls_.info(w).material);
+  for (size_t w = 0; w < state_.walls.walls(); ++w) wall_mats.push_back(state_.walls.info(w).material);
   const double height = guard_height(cs_);
   // A restart continues from a state the guard already let start.
-  const InitialOverlap overlaps = opt_.restart.empty() ? initial_overlaps(placed, mt_) : InitialOverlap{};
-  stab_ = check_stability(cs_, lvl_, mt_, kinds, wall_mats, height, overlaps);
-  for (const auto& l : stab_.lines) log_->info("{}", l);
+  const InitialOverlap overlaps = opt_.restart.empty() ? initial_overlaps(placed, physics_.mt) : InitialOverlap{};
+  physics_.stab = check_stability(cs_, lvl_, physics_.mt, kinds, wall_mats, height, overlaps);
+  for (const auto& l : physics_.stab.lines) log_->info("{}", l);
+  return r_max;
+}
 
-  if (!fills_scene) ins_.clear();
+void Level::setup_skin(double r_max) {
+  stepper_.skin = lvl_.skin > 0.0 ? lvl_.skin : 0.5 * r_max;
+  state_.nl.set_skin(stepper_.skin);
+  stepper_.r_max = r_max;
+  stepper_.ghost_cutoff = 2.0 * stepper_.r_max + stepper_.skin;
+  log_->info("neighbour search: skin {:.4g} m, rebuild when a particle moved {:.4g} m", stepper_.skin,
+             0.5 * stepper_.skin);
+}
 
-  skin_ = lvl_.skin > 0.0 ? lvl_.skin : 0.5 * r_max;
-  nl_.set_skin(skin_);
-  r_max_ = r_max;
-  ghost_cutoff_ = 2.0 * r_max_ + skin_;
-  log_->info("neighbour search: skin {:.4g} m, rebuild when a particle moved {:.4g} m", skin_, 0.5 * skin_);
-
-  setup_measurements();
-  events_.assign(cs_.events.size(), EventState{});
-  resolve_end_time();
-
+void Level::start_state() {
+  // The run folder, then the state at t0: a checkpoint's, the coupler's, or the case's with its forces.
   if (!opt_.out_dir.empty() && comm_.rank() == 0) {
     io::write_file_atomic(opt_.out_dir / "case.toml", config::resolved_case_text(cs_.path));  // a variant resolved
     std::filesystem::create_directories(opt_.out_dir / "probes");
   }
   if (!opt_.restart.empty()) load_checkpoint(opt_.restart);
   if (!opt_.out_dir.empty() && comm_.rank() == 0)
-    snaps_ = std::make_unique<io::SnapshotSeries>(opt_.out_dir, "particles", !opt_.restart.empty());
-  if (!opt_.coupler.empty()) {
-    connect_coupler();
-  } else if (opt_.restart.empty()) {
-    // Velocity Verlet's first half kick needs the forces at t = 0 (a checkpoint stores them). Without
-    // them particles placed touching start half a kick short: a pack placed with overlaps gained
-    // (omega dt / 2)^2 of its stored energy, 2 % at 10 steps per contact (cases/stability/overlap_pack.toml).
-    // The evaluation leaves the tangential history as it was: step 1 integrates it.
-    rebuild();
-    const std::vector<Vec3> pair_hist = nl_.hist, wall_hist = walls_.hist;
-    clear_ghost_forces(p_);
-    forces_(fctx_, false);
-    nl_.hist = pair_hist;
-    walls_.hist = wall_hist;
-    refuse_placed_overlap();
-  }
+    out_.snaps = std::make_unique<io::SnapshotSeries>(opt_.out_dir, "particles", !opt_.restart.empty());
+  if (!opt_.coupler.empty()) connect_coupler();
+  else if (opt_.restart.empty()) initial_forces();
+}
+
+void Level::initial_forces() {
+  // Velocity Verlet's first half kick needs the forces at t = 0 (a checkpoint stores them). Without
+  // them particles placed touching start half a kick short: a pack placed with overlaps gained
+  // (omega dt / 2)^2 of its stored energy, 2 % at 10 steps per contact (cases/stability/overlap_pack.toml).
+  // The evaluation leaves the tangential history as it was: step 1 integrates it.
+  rebuild();
+  const std::vector<Vec3> pair_hist = state_.nl.hist, wall_hist = state_.walls.hist;
+  clear_ghost_forces(state_.p);
+  stepper_.forces(stepper_.fctx, false);
+  state_.nl.hist = pair_hist;
+  state_.walls.hist = wall_hist;
+  refuse_placed_overlap();
 }
 
 void Level::refuse_placed_overlap() {
   // A particle placed deeper in a neighbour or a wall than the run guard allows would stop the run
   // in step 1 (or, centred on a wall, have no direction to be pushed along): refuse it now, by name.
-  const auto& st = fctx_.stats;
+  const auto& st = stepper_.fctx.stats;
   std::string problem;
   if (st.max_overlap_ratio > cs_.stability.max_overlap_fraction) {
     const auto i = static_cast<size_t>(st.worst_particle);
-    const int64_t id = p_.id[i];
+    const int64_t id = state_.p.id[i];
     const bool listed = id < static_cast<int64_t>(cs_.particles.size()) && !cs_.initial;
     problem = fmt::format(
         "{}: particle id {} is placed overlapping a neighbour or a wall by {:.1f} % of its radius, above [stability] "
@@ -226,21 +258,22 @@ void Level::refuse_placed_overlap() {
 }
 
 void Level::setup_walls() {
-  walls_ = walls_from_case(cs_, mt_);
-  for (size_t w = 0; w < walls_.walls(); ++w) {
-    const auto& in = walls_.info(w);
+  state_.walls = walls_from_case(cs_, physics_.mt);
+  for (size_t w = 0; w < state_.walls.walls(); ++w) {
+    const auto& in = state_.walls.info(w);
     if (in.is_mesh)
-      log_->info("wall '{}': {} triangles from {}", in.name, walls_.mesh(in.mesh).triangles(), walls_.mesh(in.mesh).name());
+      log_->info("wall '{}': {} triangles from {}", in.name, state_.walls.mesh(in.mesh).triangles(),
+                 state_.walls.mesh(in.mesh).name());
   }
 }
 
 void Level::setup_insertions() {
-  const double g = norm(gravity_);
+  const double g = norm(physics_.gravity), alpha = physics_.alpha;
   for (const auto& s : cs_.insertions) {
     InsertionParams q;
     q.name = s.name;
-    q.material = mt_.index_of(s.material);
-    q.density = mt_.material(q.material).density;
+    q.material = physics_.mt.index_of(s.material);
+    q.density = physics_.mt.material(q.material).density;
     q.cylinder = s.region.type == config::RegionType::Cylinder;
     q.lo = s.region.min;
     q.hi = s.region.max;
@@ -250,19 +283,19 @@ void Level::setup_insertions() {
     switch (s.radius.kind) {
       case config::RadiusKind::Constant:
         q.dist = InsertionParams::Dist::Constant;
-        q.r_const = s.radius.value * alpha_;
+        q.r_const = s.radius.value * alpha;
         q.r_min = q.r_max = q.r_const;
         break;
       case config::RadiusKind::Uniform:
         q.dist = InsertionParams::Dist::Uniform;
-        q.r_min = s.radius.min * alpha_;
-        q.r_max = s.radius.max * alpha_;
+        q.r_min = s.radius.min * alpha;
+        q.r_max = s.radius.max * alpha;
         break;
       case config::RadiusKind::Discrete: {
         q.dist = InsertionParams::Dist::Discrete;
         double c = 0.0;
         for (size_t k = 0; k < s.radius.values.size(); ++k) {
-          q.values.push_back(s.radius.values[k] * alpha_);
+          q.values.push_back(s.radius.values[k] * alpha);
           c += s.radius.fractions[k];
           q.cumulative.push_back(c);
         }
@@ -272,7 +305,7 @@ void Level::setup_insertions() {
       }
     }
     const double mean_mass =
-        q.density * 4.0 / 3.0 * std::numbers::pi * s.radius.mean_volume_factor() * alpha_ * alpha_ * alpha_;
+        q.density * 4.0 / 3.0 * std::numbers::pi * s.radius.mean_volume_factor() * alpha * alpha * alpha;
     q.target = s.count >= 0 ? s.count : static_cast<int64_t>(std::llround(s.mass / mean_mass));
     if (s.rate > 0.0) q.rate = s.rate;
     else if (s.mass_rate > 0.0) q.rate = s.mass_rate / mean_mass;
@@ -288,10 +321,10 @@ void Level::setup_insertions() {
       const double vz = std::fabs(q.velocity.z);
       period = vz > 0.0 ? slab / vz : std::sqrt(2.0 * slab / std::max(g, 1e-12));
     }
-    q.interval = std::max(period, dt_);
+    q.interval = std::max(period, physics_.dt);
     log_->info("insertion '{}': {} particles, {}, batch every {:.4g} s", q.name, q.target,
                q.rate > 0.0 ? fmt::format("{:.4g} particles/s", q.rate) : std::string("all at once"), q.interval);
-    ins_.emplace_back(q);
+    scene_.ins.emplace_back(q);
   }
 }
 
@@ -306,8 +339,8 @@ void Level::setup_measurements() {
     q.window_start = s.window_start;
     q.window_end = s.window_end;
     q.window_known = s.window_event.empty();
-    probes_.emplace_back(q);
-    probe_events_.push_back(s.window_event);
+    scene_.probes.emplace_back(q);
+    scene_.probe_events.push_back(s.window_event);
   }
   for (const auto& s : cs_.grids) {
     GridParams q;
@@ -317,53 +350,55 @@ void Level::setup_measurements() {
     q.nx = std::max(1, static_cast<int>(std::ceil((s.max.x - s.min.x) / s.cell_size - 1e-9)));
     q.ny = std::max(1, static_cast<int>(std::ceil((s.max.y - s.min.y) / s.cell_size - 1e-9)));
     q.nz = std::max(1, static_cast<int>(std::ceil((s.max.z - s.min.z) / s.cell_size - 1e-9)));
-    GridRun g{CellGrid(q), 1, s.output_interval, s.output_interval, 0, nullptr, {}, {}};
+    Scene::Grid g{CellGrid(q), 1, s.output_interval, s.output_interval, 0, nullptr, {}, {}};
     const double si = s.sample_interval > 0.0 ? s.sample_interval : s.output_interval;
-    g.sample_every = std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(si / dt_)));
+    g.sample_every = std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(si / physics_.dt)));
     if (!opt_.out_dir.empty() && comm_.rank() == 0)
       g.series = std::make_unique<io::GridSeries>(opt_.out_dir, q.name, q.origin, q.h, q.nx, q.ny, q.nz,
                                                   !opt_.restart.empty());
-    grids_.push_back(std::move(g));
+    scene_.grids.push_back(std::move(g));
   }
   if (cs_.output.energy_interval > 0.0)
     account_ = std::make_unique<EnergyAccount>(
-        std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(cs_.output.energy_interval / dt_))), gravity_, dt_);
+        std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(cs_.output.energy_interval / physics_.dt))),
+        physics_.gravity, physics_.dt);
 }
 
 void Level::load_initial_state(std::vector<ParticleKind>& kinds, std::vector<PlacedParticle>& placed, bool add) {
   const auto& in = *cs_.initial;
-  const int mat = mt_.index_of(in.material);
-  const auto list = read_initial_particles(in, cs_.domain, mat, mt_.material(mat).density);
+  const int mat = physics_.mt.index_of(in.material);
+  const auto list = read_initial_particles(in, cs_.domain, mat, physics_.mt.material(mat).density);
   for (const ParticleInit& pi : list) {
     placed.push_back({{pi.x, pi.radius}, mat, pi.id});
-    ++explicit_count_;
-    explicit_mass_ += sphere_mass(pi.density, pi.radius);
-    next_id_ = std::max(next_id_, pi.id + 1);
-    if (add && dec_.owner(pi.x) == comm_.rank()) add_particle(pi);
+    ++run_.explicit_count;
+    run_.explicit_mass += sphere_mass(pi.density, pi.radius);
+    run_.next_id = std::max(run_.next_id, pi.id + 1);
+    if (add && stepper_.dec.owner(pi.x) == comm_.rank()) add_particle(pi);
   }
   if (!list.empty()) kinds.push_back(initial_kind(list, mat));  // as mlcg check previews it
   log_->info("initial state: {} particles from {}", list.size(), in.file);
 }
 
 void Level::add_particle(const ParticleInit& pi) {
-  p_.add(pi);
-  if (history_loaded_) {  // keep the per-particle history aligned with the particles
-    pair_hist_.append(nullptr, nullptr, 0);
-    wall_hist_.append(nullptr, nullptr, 0);
+  state_.p.add(pi);
+  if (state_.history_loaded) {  // keep the per-particle history aligned with the particles
+    state_.pair_hist.append(nullptr, nullptr, 0);
+    state_.wall_hist.append(nullptr, nullptr, 0);
   }
-  p_.f.back() = p_.mass.back() * gravity_;
-  next_id_ = std::max(next_id_, pi.id + 1);
-  rebuild_pending_ = true;
-  if (account_) account_->carried_in(p_, p_.n_local() - 1);
+  state_.p.f.back() = state_.p.mass.back() * physics_.gravity;
+  run_.next_id = std::max(run_.next_id, pi.id + 1);
+  stepper_.rebuild_pending = true;
+  if (account_) account_->carried_in(state_.p, state_.p.n_local() - 1);
 }
 
 void Level::resolve_end_time() {
   if (cs_.time.end >= 0.0) {
-    end_time_ = cs_.time.end;
+    run_.end_time = cs_.time.end;
     return;
   }
   for (size_t e = 0; e < cs_.events.size(); ++e)
-    if (cs_.events[e].name == cs_.time.end_event && events_[e].fired) end_time_ = events_[e].fired_at + cs_.time.end_plus;
+    if (cs_.events[e].name == cs_.time.end_event && scene_.events[e].fired)
+      run_.end_time = scene_.events[e].fired_at + cs_.time.end_plus;
 }
 
 }  // namespace mlcg
