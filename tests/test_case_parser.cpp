@@ -209,8 +209,7 @@ TEST(CaseParser, OtherForms) {  // constant and uniform radius, box region, coun
 
 TEST(CaseParser, ReadmeExampleParses) {  // the user documentation's complete example stays valid
   const std::string readme = slurp(std::string(MLCG_SOURCE_DIR) + "/cases/README.md");
-  const size_t begin = readme.find("```toml
-", readme.find("## Complete example"));
+  const size_t begin = readme.find("```toml\n", readme.find("## Complete example"));
   ASSERT_NE(begin, std::string::npos);
   const size_t end = readme.find("```", begin + 8);
   ASSERT_NE(end, std::string::npos);
