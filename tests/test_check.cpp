@@ -191,5 +191,5 @@ TEST(Check, EstimatesAShortQuickstartRunWithinAFactorOfTwo) {
   fs::remove_all(cwd);
   fs::remove_all(cache);
   fs::remove_all(dir);
-  fs::remove(c);
+  mlcg::test::remove_case_copy(c);
 }

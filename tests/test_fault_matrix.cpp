@@ -115,7 +115,7 @@ struct Chain {
   ~Chain() {
     for (const auto& d : {ref, dir}) remove_run(d);
     for (const char* n : {".out1", ".out2", ".out3"}) fs::remove(dir.string() + n);
-    fs::remove(cfile);
+    mlcg::test::remove_case_copy(cfile);
   }
   std::vector<std::string> run() const { return {"run", cfile.string(), "--out", dir.string(), "--quiet"}; }
   std::vector<std::string> resume() const { return {"resume", dir.string(), "--quiet"}; }

@@ -216,7 +216,8 @@ TEST(DemLevelSignals, SigtermEndsALongInsertionBatchWithinTwoSeconds) {
   for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
            {"min = [-0.05, -0.05, -0.04]\nmax = [0.05, 0.05, 0.15]", "min = [-0.3, -0.3, -0.04]\nmax = [0.3, 0.3, 0.5]"},
            {"radius = 0.037, zmin = 0.002, zmax = 0.135", "radius = 0.29, zmin = 0.002, zmax = 0.49"},
-           {"count = 2500\nrate = 20000.0\n", "count = 600000\n"},
+           {"count_alpha1 = 2500     # beads of 4 mm; a level at alpha inserts 2500 / alpha^3 of its own\nrate_alpha1 = 20000.0\n",
+            "count = 600000\n"},
            {"follow_gap = 0.005\nfollow_height = 0.02\n", ""},
            {"[time]\n", "[time]\nprogress_interval = 0.5\n"}}) {
     ASSERT_NE(text.find(from), std::string::npos) << from;

@@ -97,11 +97,7 @@ mlcg::config::CaseSpec quickstart(int fine_ranks) {
   std::string text = slurp(kCase);
   const std::string fine = "name = \"fine\"\nalpha = 1.0\n";
   text.replace(text.find(fine), fine.size(), fine + "ranks = " + std::to_string(fine_ranks) + "\n");
-  const fs::path p = temp_path("hosts_case").string() + ".toml";
-  std::ofstream(p) << text;
-  auto cs = mlcg::config::load_case(p.string());
-  fs::remove(p);
-  return cs;
+  return mlcg::config::parse_case(text, kCase);  // kCase's folder holds its base
 }
 
 Placement place(const std::string& hosts_text, int fine_ranks) {
@@ -213,15 +209,11 @@ TEST(Hosts, InsideASlurmAllocationTheNodesAreTheHosts) {
 }
 
 TEST(Hosts, NonLoopbackEndpointWithoutCurveIsRefusedByTheLauncher) {
-  const fs::path kase = temp_path("hosts_case").string() + ".toml";
-  {
-    std::string text = slurp(kCase);
-    text.replace(text.find("[coupling]"), 10, "[coupling]\nendpoint = \"tcp://10.77.0.9:5555\"");
-    std::ofstream(kase) << text;
-  }
+  const fs::path kase = mlcg::test::copy_case(kCase, mlcg::test::fresh_temp_path("hosts_case"),
+                                              {{"[coupling]", "[coupling]\nendpoint = \"tcp://10.77.0.9:5555\""}});
   const Result r = mlcg_run(kase.string(), "");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("endpoint tcp://10.77.0.9:5555 is not loopback or ipc"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("run with --curve"), std::string::npos) << r.out;
-  fs::remove(kase);
+  mlcg::test::remove_case_copy(kase);
 }

@@ -89,16 +89,12 @@ TEST(Launcher, RefusesABadCaseWithFileLineAndKey) {
 // The region rules run before any process: a fine region whose top is 0.83 orifice diameters above
 // the orifice is refused with exit code 2, its file, line and key, and no run folder.
 TEST(Launcher, RefusesAFineRegionTooCloseAboveTheOrificeBeforeStartingAnything) {
-  const fs::path bad = temp_path("lowtop").string() + ".toml";
-  int line = 0;
-  {
-    std::string text = slurp(kSrc + "/cases/quickstart/mlcg.toml");
-    const std::string from = "max = [0.04, 0.04, 0.04]";
-    const size_t at = text.find(from);
-    line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
-    text.replace(at, from.size(), "max = [0.04, 0.04, 0.02]");
-    std::ofstream(bad) << text;
-  }
+  const fs::path bad = mlcg::test::copy_case(kSrc + "/cases/quickstart/mlcg.toml", fresh_temp_path("lowtop_case"),
+                                             {{"max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.02]"}});
+  const std::string edited = slurp(bad);
+  const size_t at = edited.find("max = [0.04, 0.04, 0.02]");
+  ASSERT_NE(at, std::string::npos);
+  const int line = 1 + static_cast<int>(std::count(edited.begin(), edited.begin() + static_cast<long>(at), '\n'));
   const fs::path log = bad.string() + ".out";
   EXPECT_EQ(run(kBin + "/mlcg run " + bad.string() + " --out " + bad.string() + ".run > " + log.string() + " 2>&1"),
             2);
@@ -109,8 +105,7 @@ TEST(Launcher, RefusesAFineRegionTooCloseAboveTheOrificeBeforeStartingAnything) 
   EXPECT_NE(text.find("0.83 orifice diameters above the orifice"), std::string::npos) << text;
   EXPECT_EQ(text.find("coupled over"), std::string::npos) << "nothing may start: " << text;
   EXPECT_FALSE(fs::exists(bad.string() + ".run")) << "a refused case must not start a run";
-  fs::remove(bad);
-  fs::remove(log);
+  mlcg::test::remove_case_copy(bad);
 }
 
 TEST(Launcher, StartsAMultiRankLevelThroughMpirun) {
@@ -255,8 +250,8 @@ TEST(MlcgJunction, FineParticlesArePlacedInsideTheWallsBelowAJunction) {
 
 namespace {
 fs::path case_with(const std::string& extra, const std::string& tag) {
-  const fs::path c = temp_path(tag).string() + ".toml";
-  std::ofstream(c) << slurp(kSrc + "/cases/quickstart/mlcg.toml") << "\n" << extra << "\n";
+  const fs::path c = mlcg::test::copy_case(kSrc + "/cases/quickstart/mlcg.toml", fresh_temp_path(tag + "_case"));
+  std::ofstream(c, std::ios::app) << "\n" << extra << "\n";
   return c;
 }
 }  // namespace
@@ -327,12 +322,9 @@ TEST(MlcgRecovery, KilledFineLevelIsRestartedFromTheLastCheckpointAndTheRunCompl
 }
 
 TEST(MlcgRecovery, KilledMpirunOfATwoRankFineLevelLeavesNoRankBehind) {
-  std::string text = slurp(kSrc + "/cases/quickstart/mlcg.toml");
   const std::string fine = "name = \"fine\"\nalpha = 1.0\ndt_alpha1 = 1.2e-5\n";
-  ASSERT_NE(text.find(fine), std::string::npos);
-  text.replace(text.find(fine), fine.size(), fine + "ranks = 2\n");
-  const fs::path cfile = temp_path("mpikill").string() + ".toml";
-  std::ofstream(cfile) << text;
+  const fs::path cfile = mlcg::test::copy_case(kSrc + "/cases/quickstart/mlcg.toml", fresh_temp_path("mpikill_case"),
+                                               {{fine, fine + "ranks = 2\n"}});
   const fs::path dir = fresh_temp_path("mpikill");
   const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
   ASSERT_TRUE(wait_for_checkpoint(dir, 200, pid)) << slurp(dir.string() + ".out");
@@ -344,7 +336,7 @@ TEST(MlcgRecovery, KilledMpirunOfATwoRankFineLevelLeavesNoRankBehind) {
   expect_no_process_left(dir);  // the ranks Open MPI put in their own process groups included
   fs::remove_all(dir);
   fs::remove(dir.string() + ".out");
-  fs::remove(cfile);
+  mlcg::test::remove_case_copy(cfile);
 }
 
 TEST(MlcgRecovery, KilledFineLevelWithoutRestartStopsEveryProcessAndLeavesALoadableCheckpoint) {

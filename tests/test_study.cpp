@@ -111,9 +111,10 @@ class Study : public ::testing::Test {
     fs::create_directories(kDir / "cases");
     for (const std::string f : {"case.toml", "cg2.toml", "mlcg.toml", "study.toml"}) {
       std::string text = slurp(kSrc + "/cases/quickstart/" + f);
-      if (f != "study.toml") replace(text, "window = [0.1, 0.5]", "window = [0.05, 0.2]");
+      // case.toml is the scene; cg2.toml and mlcg.toml are variants of it (cases/README.md, "Variants")
+      if (f == "case.toml") replace(text, "window = [0.1, 0.5]", "window = [0.05, 0.2]");
+      if (f == "case.toml") replace(text, "plus = 0.5 }", "plus = 0.2 }");
       if (f == "mlcg.toml") replace(text, "end = 0.6", "end = 0.5");
-      if (f == "case.toml" || f == "cg2.toml") replace(text, "plus = 0.5 }", "plus = 0.2 }");
       std::ofstream(kDir / "cases" / f) << text;
     }
   }
@@ -295,10 +296,21 @@ TEST_F(Study, RerunAndAChangedCaseRunAgain) {
   EXPECT_GT(t1, t0) << "--rerun runs it again";
   EXPECT_NE(out.find("running 'cg2' (--rerun)"), std::string::npos) << out;
   std::string text = slurp(kDir / "cases" / "cg2.toml");
-  replace(text, "seed = 42", "seed = 43");
+  replace(text, "base = \"case.toml\"", "base = \"case.toml\"\nseed = 43");
   std::ofstream(kDir / "cases" / "cg2_changed.toml") << text;
   ASSERT_EQ(study(cg2_only("cg2_changed.toml", "cg2_only"), &out), 0) << out;
-  EXPECT_GT(fs::last_write_time(s), t1) << "a run of another case is not reused";
+  const auto t2 = fs::last_write_time(s);
+  EXPECT_GT(t2, t1) << "a run of another case is not reused";
+  EXPECT_NE(out.find("the case changed"), std::string::npos) << out;
+  // cg2.toml is a variant of case.toml: an edit of the base alone is a change of the case too.
+  ASSERT_EQ(study(cg2_only("cg2.toml", "cg2_only"), &out), 0) << out;
+  const auto t3 = fs::last_write_time(s);
+  EXPECT_GT(t3, t2) << "back to cg2.toml, after cg2_changed.toml ran in its place";
+  std::string scene = slurp(kDir / "cases" / "case.toml");
+  replace(scene, "seed = 42", "seed = 44");
+  std::ofstream(kDir / "cases" / "case.toml") << scene;
+  ASSERT_EQ(study(cg2_only("cg2.toml", "cg2_only"), &out), 0) << out;
+  EXPECT_GT(fs::last_write_time(s), t3) << "an edited base must not reuse the variant's run";
   EXPECT_NE(out.find("the case changed"), std::string::npos) << out;
 }
 

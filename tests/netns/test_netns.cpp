@@ -235,7 +235,7 @@ TEST_F(AcrossHosts, APartitionedLevelHostIsNamedAndTheRunResumesToTheLocalResult
   launch_support::expect_same_result(dir, local);
   for (const auto& d : {dir, local}) launch_support::remove_run(d);
   fs::remove(hostfile);
-  fs::remove(cfile);
+  mlcg::test::remove_case_copy(cfile);
 }
 
 // A level across hosts: the 4-rank fine level has more ranks than any host's free slots (2 each), so its ranks
@@ -290,5 +290,5 @@ TEST_F(AcrossHosts, AFourRankLevelOverTwoHostsMatchesTheOneHostRun) {
   launch_support::expect_same_result(dir, local);
   for (const auto& d : {dir, local}) launch_support::remove_run(d);
   fs::remove(hostfile);
-  fs::remove(cfile);
+  mlcg::test::remove_case_copy(cfile);
 }

@@ -55,9 +55,10 @@ def main():
     tmp = Path(tempfile.mkdtemp(prefix="mlcg_paraview_"))
     print(f"working in {tmp} (removed when the test passes)")
     quick = src / "cases" / "quickstart"
-    single = edit((quick / "case.toml").read_text(), "count = 2500\n", "count = 500\n", "case.toml")
+    single = edit((quick / "case.toml").read_text(), "count_alpha1 = 2500 ", "count_alpha1 = 500 ", "case.toml")
     single = edit(single, 'end = { event = "open", plus = 0.5 }', 'end = { event = "open", plus = 0.1 }', "case.toml")
     (tmp / "single.toml").write_text(single)
+    (tmp / "case.toml").write_text((quick / "case.toml").read_text())  # the base of mlcg.toml
     (tmp / "mlcg.toml").write_text(edit((quick / "mlcg.toml").read_text(), "end = 0.6\n", "end = 0.15\n", "mlcg.toml"))
     for case, out in (("single.toml", "single"), ("mlcg.toml", "hierarchy")):
         r = run([bindir / "mlcg", "run", case, "--out", out, "--quiet"], tmp)

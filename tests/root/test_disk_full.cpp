@@ -105,7 +105,7 @@ TEST(DiskFull, SingleLevelStopsNamingTheFileWithAFailedSummaryAndLog) {
   const std::string log = slurp(run / "log.txt");
   EXPECT_NE(log.find("STOPPED: cannot write the run's output"), std::string::npos) << log;
   expect_listed_snapshots_intact(run);
-  fs::remove(c);
+  mlcg::test::remove_case_copy(c);
   fs::remove(err);
 }
 
@@ -117,7 +117,7 @@ int mlcg_run_on(const TinyDisk& disk, const std::string& rel, std::string& text)
   const int rc = sh(kBin + "/mlcg run " + c.string() + " --out " + (disk.dir() / "run").string() + " --quiet > " +
                     out.string() + " 2>&1");
   text = slurp(out);
-  fs::remove(c);
+  mlcg::test::remove_case_copy(c);
   fs::remove(out);
   return rc;
 }
@@ -280,7 +280,7 @@ TEST(DiskFull, ConsistentSetsThatDoNotFitKeepTheLastOneAndTheRunResumesToTheSame
   launch_support::expect_same_result(dir, ref);
   launch_support::remove_run(ref);
   fs::remove(out);
-  fs::remove(cfile);
+  mlcg::test::remove_case_copy(cfile);
 }
 
 // A single level through `mlcg run`, checkpointing every 0.01 s, on a disk filled to the last byte once its first
@@ -337,7 +337,7 @@ TEST(DiskFull, ACheckpointAndTheSummaryThatDoNotFitLeaveTheLastOnesWholeAndResta
             read_json(ref / "summary.json")["mass_balance"]);
   for (const auto& d : {ref, copy}) fs::remove_all(d);
   fs::remove(out);
-  fs::remove(cfile);
+  mlcg::test::remove_case_copy(cfile);
 }
 
 // A level on two ranks whose snapshots fill the disk: rank 0's write error reaches both ranks, the level ends
@@ -360,5 +360,5 @@ TEST(DiskFull, ATwoRankLevelStopsOnBothRanksNamingTheFile) {
   for (const auto& p : launch_support::processes_naming(dir)) ADD_FAILURE() << "still running: " << p;
   expect_listed_snapshots_intact(dir);
   fs::remove(out);
-  fs::remove(cfile);
+  mlcg::test::remove_case_copy(cfile);
 }

@@ -181,6 +181,6 @@ TEST_F(Slurm, ALevelSpansTwoNodesOfTheAllocation) {
       launch_support::remove_run(d);
       fs::remove(d.string() + ".submit");
     }
-    fs::remove(cfile);
+    mlcg::test::remove_case_copy(cfile);
   }
 }

@@ -72,19 +72,12 @@ struct ContinueOnExit {
   }
 };
 
-// A copy of `rel`, a case of the source tree, with each (from, to) replaced at its first occurrence (a `from`
-// it lacks fails the test), written to temp_path(tag).toml; that path.
+// A copy of `rel`, a case of the source tree, with its bases (copy_case), each (from, to) replaced at its
+// first occurrence in the case or its bases (a `from` none holds fails the test), in the folder
+// temp_path(tag + "_case"); the copy's path.
 inline fs::path edited_case(const std::string& rel, const std::vector<std::pair<std::string, std::string>>& edits,
                             const std::string& tag) {
-  std::string text = slurp(kSrc + "/" + rel);
-  for (const auto& [from, to] : edits) {
-    const size_t at = text.find(from);
-    EXPECT_NE(at, std::string::npos) << from;
-    if (at != std::string::npos) text.replace(at, from.size(), to);
-  }
-  const fs::path c = temp_path(tag).string() + ".toml";
-  std::ofstream(c) << text;
-  return c;
+  return mlcg::test::copy_case(kSrc + "/" + rel, fresh_temp_path(tag + "_case"), edits);
 }
 
 // The quickstart hierarchy with `[coupling] timeout` set; the case file's path.
