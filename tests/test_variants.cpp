@@ -131,6 +131,20 @@ TEST(Variants, ResolvedTextChangesWhenTheBaseChanges) {
   EXPECT_EQ(load_case((f.dir / "v.toml").string()).seed, 7u);
 }
 
+// `mlcg run single.toml` in the case's own folder: a path without a folder is in the current one.
+TEST(Variants, ACaseNamedWithoutAFolderIsInTheCurrentOne) {
+  Folder f("cwd");
+  put(f.dir / "scene.toml", slurp(kCases + "quickstart/case.toml"));
+  put(f.dir / "v.toml", "base = \"scene.toml\"\n[time]\nend = 0.05\n");
+  const fs::path before = fs::current_path();
+  fs::current_path(f.dir);
+  EXPECT_EQ(resolved_case_text("scene.toml"), slurp("scene.toml"));
+  EXPECT_NE(resolved_case_text("v.toml").find("end = 0.05"), std::string::npos);
+  EXPECT_DOUBLE_EQ(load_case("v.toml").time.end, 0.05);
+  EXPECT_EQ(fs::path(load_case("v.toml").dir), f.dir.lexically_normal());
+  fs::current_path(before);
+}
+
 TEST(Variants, SectionsMergeKeyByKeyArraysOfTablesReplaceWhole) {
   Folder f("merge");
   put(f.dir / "scene.toml", slurp(kCases + "quickstart/case.toml"));

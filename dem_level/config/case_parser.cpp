@@ -313,14 +313,6 @@ void resolve_rayleigh_dt(const Table& root, CaseSpec& spec) {
   }
 }
 
-std::string folder_of(const std::string& path) {
-  namespace fs = std::filesystem;
-  fs::path parent = fs::path(path).parent_path();
-  if (parent.empty()) parent = ".";
-  std::string dir = fs::absolute(parent).lexically_normal().string();
-  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
-  return dir;
-}
 
 }  // namespace
 

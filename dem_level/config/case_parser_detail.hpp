@@ -20,6 +20,9 @@ struct Doc {
   std::string dir;   // its folder (absolute); relative files resolve here
 };
 
+// The absolute folder of the file at `path` ("x.toml" is in the current folder), without a trailing slash.
+std::string folder_of(const std::string& path);
+
 // ---- formatting -----------------------------------------------------------
 std::string num(double v);                       // 0.7, 1e-06, inf
 std::string vec(const Vec3& v);                  // [0, 0, 0.3]

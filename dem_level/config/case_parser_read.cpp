@@ -160,9 +160,18 @@ SourceLoc Table::loc(std::string_view k) const {
 
 std::string Table::folder(std::string_view k) const {
   const SourceLoc at = loc(k);
-  if (at.file == doc_->file) return doc_->dir;
-  return std::filesystem::absolute(std::filesystem::path(at.file).parent_path()).lexically_normal().string();
+  return at.file == doc_->file ? doc_->dir : folder_of(at.file);
 }
+
+std::string folder_of(const std::string& path) {
+  namespace fs = std::filesystem;
+  fs::path parent = fs::path(path).parent_path();
+  if (parent.empty()) parent = ".";
+  std::string dir = fs::absolute(parent).lexically_normal().string();
+  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+  return dir;
+}
+
 
 int Table::line(std::string_view k) const {
   const toml::node* n = node(k);

@@ -81,7 +81,7 @@ toml::table read_tree(std::string_view text, const Doc& doc, std::vector<std::st
   if (static_cast<int>(chain.size()) >= kMaxChain)
     fail(doc, line, "base", fmt::format("a chain of more than {} bases; join some of them into one file", kMaxChain));
   chain.push_back(key);
-  const Doc base_doc{path, fs::absolute(fs::path(path).parent_path()).lexically_normal().string()};
+  const Doc base_doc{path, folder_of(path)};
   toml::table merged = read_tree(read_file_text(path), base_doc, chain);
   tree.erase("base");
   merge_over(merged, tree);
@@ -113,7 +113,7 @@ void absolutize(toml::table& out, const toml::table& in, const std::string& case
   const auto value = f ? f->value<std::string>() : std::nullopt;
   if (!value || fs::path(*value).is_absolute()) return;
   const auto& src = f->source().path;
-  const fs::path from = fs::absolute(fs::path(src ? *src : case_file).parent_path());
+  const fs::path from = detail::folder_of(src ? *src : case_file);
   out.insert_or_assign(key, (from / *value).lexically_normal().string());
 }
 
@@ -121,7 +121,7 @@ void absolutize(toml::table& out, const toml::table& in, const std::string& case
 
 std::string resolved_case_text(const std::string& path) {
   std::string text = detail::case_file_text(path);
-  const detail::Doc doc{path, fs::absolute(fs::path(path).parent_path()).lexically_normal().string()};
+  const detail::Doc doc{path, detail::folder_of(path)};
   const auto [tree, variant] = detail::read_case_tree(text, doc);
   if (!variant) return text;
   toml::table out = tree;  // a copy drops the sources; the files are made absolute from the original
