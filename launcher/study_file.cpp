@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include "config/case_keys.hpp"
 #include "config/case_parser.hpp"
 #include "run_case.hpp"
 
@@ -195,7 +196,7 @@ std::string derived_text(const fs::path& base, const std::string& change, const 
 
 void add_sweep(const Reader& r, const toml::table& t, const std::string& path, const fs::path& study_dir,
                const fs::path& folder, std::vector<Variant>& out) {
-  r.allow(t, path, {"name", "base", "key", "values", "label"});
+  r.allow(t, path, config::keys::kStudySweep);
   const std::string base_rel = r.required(t, path + ".", "base", "the case file the sweep starts from");
   const std::string key = r.required(t, path + ".", "key", "the dotted case key to vary, e.g. \"coupling.interval\"");
   const fs::path base = study_dir / base_rel;
@@ -290,7 +291,7 @@ void add_replicas(const Reader& r, int line, const std::string& key, const Varia
 // One [[variants]] entry: a case to run (once, or once per replica) or an earlier run folder.
 void add_variant(const Reader& r, const toml::table& t, const std::string& path, const fs::path& study_dir,
                  const fs::path& folder, std::vector<Variant>& out) {
-  r.allow(t, path, {"name", "case", "run", "label", "replicas"});
+  r.allow(t, path, config::keys::kStudyVariant);
   Variant v;
   v.name = r.required(t, path + ".", "name", "the variant's name (its run folder's name)");
   check_name(r, line_of(t), path + ".name", v.name);
@@ -406,7 +407,7 @@ StudySpec load_study(const fs::path& case_dir, const std::string& study_file, bo
   } catch (const config::CaseError& e) {
     throw StudyError(e.what());
   }
-  r.allow(doc, "", {"title", "folder", "reference", "probe", "variants", "sweep"});
+  r.allow(doc, "", config::keys::kStudy);
   s.title = r.str(doc, "", "title").value_or("");
   if (auto f = r.str(doc, "", "folder"); f && out.empty()) s.folder = *f;
   s.probe = r.str(doc, "", "probe").value_or("");

@@ -32,7 +32,7 @@ constexpr double kMinProgressInterval = 0.1;   // wall s: more often, the log gr
 
 void read_materials(const Table& root, CaseSpec& spec, Names& names) {
   for (const Table& t : array_of_tables(root, "materials")) {
-    t.allow({"name", "youngs_modulus", "poisson_ratio", "density"});
+    t.allow(keys::kMaterial);
     MaterialSpec m;
     m.name = t.required_string("name", "the material's name, e.g. name = \"glass\"");
     names.materials.add(t, m.name);
@@ -57,7 +57,7 @@ void read_materials(const Table& root, CaseSpec& spec, Names& names) {
 void read_contact(const Table& root, CaseSpec& spec) {
   const auto t = root.table("contact");
   if (!t) return;
-  t->allow({"normal", "tangential", "rolling", "clamp_normal"});
+  t->allow(keys::kContact);
   ContactSpec& c = spec.contact;
   c.normal = t->choice("normal", c.normal, {"hertz"});
   c.tangential = t->choice("tangential", c.tangential, {"history", "none"});
@@ -68,7 +68,7 @@ void read_contact(const Table& root, CaseSpec& spec) {
 void read_interactions(const Table& root, CaseSpec& spec, const Names& names) {
   std::map<std::pair<std::string, std::string>, std::string> seen;  // sorted pair -> "interactions[0], line 5"
   for (const Table& t : array_of_tables(root, "interactions")) {
-    t.allow({"between", "restitution", "friction", "rolling_friction"});
+    t.allow(keys::kInteraction);
     InteractionSpec in;
     if (!t.has("between")) t.fail_missing("between", "the two materials, e.g. between = [\"glass\", \"steel\"]");
     const auto between = *t.strings("between", 2);
@@ -103,7 +103,7 @@ void read_levels(const Table& root, CaseSpec& spec, Names& names) {
   const auto tables = array_of_tables(root, "levels");
   for (size_t i = 0; i < tables.size(); ++i) {
     const Table& t = tables[i];
-    t.allow({"name", "alpha", "dt", "dt_alpha1", "dt_rayleigh", "ranks", "skin", "processors", "balance"});
+    t.allow(keys::kLevel);
     LevelSpec l;
     l.name = t.has("name") ? t.required_string("name", "the level's name") : "level" + std::to_string(i);
     names.levels.add(t, l.name);
@@ -159,7 +159,7 @@ void read_levels(const Table& root, CaseSpec& spec, Names& names) {
 
 void read_domain(const Table& root, CaseSpec& spec) {
   const auto t = root.table("domain");
-  t->allow({"min", "max"});
+  t->allow(keys::kDomain);
   spec.domain.min = t->required_vec3("min", "the lower corner, e.g. min = [-0.1, -0.1, 0.0] (m)");
   spec.domain.max = t->required_vec3("max", "the upper corner, e.g. max = [0.1, 0.1, 0.5] (m)");
   for (int a = 0; a < 3; ++a)
@@ -171,7 +171,7 @@ void read_domain(const Table& root, CaseSpec& spec) {
 void read_output(const Table& root, CaseSpec& spec) {
   const auto t = root.table("output");
   if (!t) return;
-  t->allow({"snapshot_interval", "checkpoint_interval", "stats_interval", "energy_interval"});
+  t->allow(keys::kOutput);
   OutputSpec& o = spec.output;
   o.snapshot_interval = t->number("snapshot_interval", o.snapshot_interval);
   t->non_negative("snapshot_interval", o.snapshot_interval, "s (0 = only the final state)");
@@ -186,8 +186,7 @@ void read_output(const Table& root, CaseSpec& spec) {
 void read_stability(const Table& root, CaseSpec& spec) {
   const auto t = root.table("stability");
   if (!t) return;
-  t->allow({"rayleigh_fraction", "min_steps_per_contact", "max_overlap_fraction", "max_impact_speed",
-            "dt_override_reason"});
+  t->allow(keys::kStability);
   StabilitySpec& s = spec.stability;
   auto fraction = [&](const char* k, double& v) {
     v = t->number(k, v);
@@ -206,14 +205,14 @@ void read_stability(const Table& root, CaseSpec& spec) {
 
 void read_time(const Table& root, CaseSpec& spec, const Names& names) {
   const auto t = root.table("time");
-  t->allow({"end", "progress_interval"});
+  t->allow(keys::kTime);
   TimeSpec& tm = spec.time;
   const toml::node* end = t->node("end");
   const std::string how = "end = <seconds> or end = { event = \"<event name>\", plus = <seconds> }";
   if (!end) t->fail_missing("end", how);
   if (end->is_table()) {
     const Table e = *t->table("end");
-    e.allow({"event", "plus"}, "end = { ... }");
+    e.allow(keys::kEndAfterEvent, "end = { ... }");
     tm.end_event = e.required_string("event", "the name of an [[events]] entry");
     check_reference(e, "event", tm.end_event, names.events, "event");
     tm.end_plus = e.number("plus", 0.0);
@@ -320,10 +319,7 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   const Doc doc{path_for_messages, folder_of(path_for_messages)};
   const toml::table tbl = read_case_tree(toml_text, doc).root;  // a variant laid over its base
   const Table root(doc, tbl, "");
-  root.allow({"title", "seed", "gravity", "materials", "interactions", "contact", "levels", "domain", "walls",
-              "insertion", "particles", "initial", "events", "probes", "grids", "output", "stability", "time",
-              "orifice", "coupling", "launcher", "swap", "limits"},
-             "the top level");
+  root.allow(keys::kTop, "the top level");
   for (const char* k : {"materials", "interactions", "levels"})
     if (!root.has(k)) fail(doc, 1, k, "missing required table; add at least one [[" + std::string(k) + "]] entry");
   for (const char* k : {"domain", "time"})

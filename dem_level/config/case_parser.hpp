@@ -1,6 +1,7 @@
 #pragma once
 // Reading a case file (TOML) into a CaseSpec, and refusing impossible input
-// before anything is simulated. Every key is documented in cases/README.md.
+// before anything is simulated. The keys each table allows are declared in config/case_keys.hpp,
+// and tests/test_case_keys.cpp holds cases/README.md to exactly those.
 //
 // Every error is a CaseError whose message reads
 //     FILE:LINE: KEY: what is wrong; what is allowed

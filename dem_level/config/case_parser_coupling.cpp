@@ -93,8 +93,7 @@ double resolve_interval(const Table& t, double interval, const std::vector<Level
 }
 
 CouplingRegionSpec read_region(const Table& r, const CaseSpec& spec, const Names& names) {
-  r.allow({"coarse", "fine", "min", "max", "cell_size", "inside", "insert_depth", "fade", "kp", "ki",
-           "traction_limit", "correct", "velocity_gain", "velocity_ki", "acceleration_limit", "velocity_only_below", "radius_bins"});
+  r.allow(keys::kCouplingRegion);
   CouplingRegionSpec g;
   g.coarse = r.required_string("coarse", "the name of the coarser [[levels]] entry, e.g. coarse = \"cg2\"");
   check_reference(r, "coarse", g.coarse, names.levels, "level");
@@ -159,7 +158,7 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
     t->fail_table("a [coupling] section needs more than one [[levels]] entry, found " +
                   std::to_string(spec.levels.size()) +
                   "; remove [coupling] for a single-level case, or add the finer [[levels]] it couples");
-  t->allow({"interval", "endpoint", "heartbeat", "timeout", "checkpoint_every", "regions"});
+  t->allow(keys::kCoupling);
   CouplingSpec c;
   c.interval = t->number("interval", c.interval);
   t->non_negative("interval", c.interval, "s (0 = automatic)");
@@ -233,7 +232,7 @@ void read_launcher(const Table& root, CaseSpec& spec) {
   for (const Table& w : array_of_tables(root, "swap")) {
     if (spec.levels.size() < 2)
       w.fail_table("[[swap]] replaces a level of a multi-level run; a single-level case has none: remove it");
-    w.allow({"level", "at", "binary"});
+    w.allow(keys::kSwap);
     SwapSpec s;
     s.loc = w.loc();
     s.level = w.required_string("level", "the name of a [[levels]] entry");
@@ -249,7 +248,7 @@ void read_launcher(const Table& root, CaseSpec& spec) {
   if (!t) return;
   if (spec.levels.size() < 2)
     t->fail_table("[launcher] supervises a multi-level run; a single-level case has nothing to restart: remove it");
-  t->allow({"restart_on_failure"});
+  t->allow(keys::kLauncher);
   if (const auto n = t->integer("restart_on_failure")) {
     t->check("restart_on_failure", *n >= 0 && *n <= 100,
              std::to_string(*n) + " is outside [0, 100]; give how many times a failed hierarchy is restarted");

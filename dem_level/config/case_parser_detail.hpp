@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "config/case_keys.hpp"
 #include "config/case_parser.hpp"
 
 namespace mlcg::config::detail {

@@ -108,7 +108,7 @@ void enforce(std::vector<Cost> costs, double limit, const std::string& limit_key
 void read_limits(const Table& root, CaseSpec& spec) {
   const auto t = root.table("limits");
   if (!t) return;
-  t->allow({"max_steps", "max_output_files", "max_memory_gb"}, "[limits]");
+  t->allow(keys::kLimits, "[limits]");
   LimitsSpec& l = spec.limits;
   l.max_steps = t->integer("max_steps").value_or(l.max_steps);
   t->check("max_steps", l.max_steps >= 1, std::to_string(l.max_steps) + " is not >= 1; give the most time steps a "

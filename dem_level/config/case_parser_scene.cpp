@@ -71,17 +71,12 @@ void read_walls(const Table& root, CaseSpec& spec, Names& names) {
     if (!t.has("type")) t.fail_missing("type", "the wall's type, one of " + join(types));
     const std::string type = t.choice("type", "", types);
     w.type = static_cast<WallType>(std::find(types.begin(), types.end(), type) - types.begin());
-    std::vector<std::string> keys{"name", "type", "material"};
-    switch (w.type) {
-      case WallType::Plane: keys.insert(keys.end(), {"point", "normal"}); break;
-      case WallType::Cylinder: keys.insert(keys.end(), {"center", "axis", "radius", "bottom", "top", "rims"}); break;
-      case WallType::Cone:
-        keys.insert(keys.end(), {"center", "axis", "radius_bottom", "radius_top", "bottom", "top", "rims"});
-        break;
-      case WallType::Disk: keys.insert(keys.end(), {"center", "axis", "radius", "inner_radius"}); break;
-      case WallType::Mesh: keys.insert(keys.end(), {"file", "scale", "offset"}); break;
-    }
-    t.allow(keys, "a " + type + " wall");
+    static const keys::List* const of_type[] = {&keys::kPlane, &keys::kCylinder, &keys::kCone, &keys::kDisk,
+                                                &keys::kMesh};  // in WallType order
+    keys::List allowed = keys::kWall;
+    const keys::List& own = *of_type[static_cast<int>(w.type)];
+    allowed.insert(allowed.end(), own.begin(), own.end());
+    t.allow(allowed, "a " + type + " wall");
     w.name = t.required_string("name", "the wall's name, e.g. name = \"silo\"");
     names.walls.add(t, w.name);
     w.material = t.required_string("material", "the name of a [[materials]] entry");
@@ -154,10 +149,10 @@ RegionSpec read_region(const Table& ins, const DomainSpec& domain) {
   RegionSpec r;
   const std::string type = t.choice("type", "box", {"box", "cylinder"});
   if (type == "box") {
-    t.allow({"type", "min", "max"}, "a box region");
+    t.allow(keys::kBoxRegion, "a box region");
     read_box(t, r.min, r.max, "the region");
   } else {
-    t.allow({"type", "center", "radius", "zmin", "zmax"}, "a cylinder region");
+    t.allow(keys::kCylinderRegion, "a cylinder region");
     r.type = RegionType::Cylinder;
     if (!t.has("center")) t.fail_missing("center", "the axis position [x, y] (m)");
     const auto c = *t.numbers("center", 2);
@@ -188,7 +183,7 @@ RadiusSpec read_radius(const Table& ins) {
   }
   if (!n->is_table()) ins.fail("radius", std::string("expected a number or a table, found ") + type_name(*n) + "; give " + how);
   const Table t = *ins.table("radius");
-  t.allow({"uniform", "values", "fractions"}, "a radius distribution");
+  t.allow(keys::kRadiusDistribution, "a radius distribution");
   const bool uniform = t.has("uniform"), values = t.has("values");
   if (uniform == values)
     t.fail_table(uniform ? "both uniform and values given; give one of them" : "neither uniform nor values given; give " + how);
@@ -270,8 +265,7 @@ void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
   UniqueNames insertions("insertion");
   for (size_t i = 0; i < tables.size(); ++i) {
     const Table& t = tables[i];
-    t.allow({"name", "material", "region", "radius", "count", "count_alpha1", "mass", "rate", "rate_alpha1",
-             "mass_rate", "start", "interval", "velocity", "follow_gap", "follow_height", "max_attempts"});
+    t.allow(keys::kInsertion);
     InsertionSpec s;
     s.name = t.has("name") ? t.required_string("name", "the insertion's name") : "insertion" + std::to_string(i);
     insertions.add(t, s.name);
@@ -322,7 +316,7 @@ void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
 
 void read_events(const Table& root, CaseSpec& spec, Names& names) {
   for (const Table& t : array_of_tables(root, "events")) {
-    t.allow({"name", "at", "after_insertion", "mean_speed_below", "check_interval", "latest", "remove_walls"});
+    t.allow(keys::kEvent);
     EventSpec e;
     e.name = t.required_string("name", "the event's name, e.g. name = \"open\"");
     names.events.add(t, e.name);
@@ -367,7 +361,7 @@ void read_events(const Table& root, CaseSpec& spec, Names& names) {
 
 void read_probes(const Table& root, CaseSpec& spec, Names& names) {
   for (const Table& t : array_of_tables(root, "probes")) {
-    t.allow({"name", "point", "normal", "radius", "sample_rate", "window", "window_relative_to"});
+    t.allow(keys::kProbe);
     ProbeSpec p;
     p.name = t.required_string("name", "the probe's name, e.g. name = \"orifice\"");
     names.probes.add(t, p.name);
@@ -400,7 +394,7 @@ void read_probes(const Table& root, CaseSpec& spec, Names& names) {
 
 void read_grids(const Table& root, CaseSpec& spec, Names& names) {
   for (const Table& t : array_of_tables(root, "grids")) {
-    t.allow({"name", "min", "max", "cell_size", "sample_interval", "output_interval"});
+    t.allow(keys::kGrid);
     GridSpec g;
     g.name = t.required_string("name", "the grid's name, e.g. name = \"bed\"");
     names.grids.add(t, g.name);
@@ -433,7 +427,7 @@ namespace mlcg::config::detail {
 // ---- [[particles]] -----------------------------------------------------------
 void read_particles(const Table& root, CaseSpec& spec, Names& names) {
   for (const Table& t : array_of_tables(root, "particles")) {
-    t.allow({"material", "radius", "position", "velocity", "omega"}, "a particle");
+    t.allow(keys::kParticle, "a particle");
     ParticleSpec p;
     p.material = t.required_string("material", "the name of a [[materials]] entry");
     check_reference(t, "material", p.material, names.materials, "material");
@@ -456,7 +450,7 @@ namespace mlcg::config::detail {
 void read_initial(const Table& root, CaseSpec& spec, Names& names) {
   const auto t = root.table("initial");
   if (!t) return;
-  t->allow({"file", "material"}, "[initial]");
+  t->allow(keys::kInitial, "[initial]");
   InitialSpec in;
   const std::string file = t->required_string("file", "an HDF5 particle snapshot (e.g. a run's particles/particles_000010.h5)");
   const std::filesystem::path path = std::filesystem::path(t->folder("file")) / file;
@@ -474,7 +468,7 @@ void read_initial(const Table& root, CaseSpec& spec, Names& names) {
 void read_orifice(const Table& root, CaseSpec& spec) {
   const auto t = root.table("orifice");
   if (!t) return;
-  t->allow({"center", "diameter", "width", "length"}, "[orifice]");
+  t->allow(keys::kOrifice, "[orifice]");
   OrificeSpec o;
   o.center = t->required_vec3("center", "the centre of the orifice [m], e.g. center = [0, 0, 0]");
   check_inside_domain(*t, "center", "center", o.center, o.center, spec.domain);
