@@ -136,6 +136,85 @@ void Coupler::check_values(const bus::GridStats& g, const Region& r, size_t leve
                          i / 4, g.occupants(i), h));
 }
 
+void Coupler::plan_insertions(Region& r, const bus::GridStats& cs, const bus::GridStats& fs, uint64_t k,
+                              bus::GridCommands& fine) const {
+  r.planner.add_crossings(to_vector(cs.face_mass()), to_vector(cs.face_momentum()), to_vector(cs.face_moment()),
+                          {cs.face_histogram().begin(), cs.face_histogram().end()});
+  r.planner.add_returned(to_vector(fs.face_returned_mass()));
+  r.log.returned_mass = 0.0;
+  for (double m : fs.face_returned_mass()) r.log.returned_mass += m;
+  r.log.coarse_mass = cs.mass_in_region();
+  r.log.fine_mass = fs.mass_in_region();
+  r.log.fine_leaving = fs.mass_leaving();
+  // Placing needs the fine particles in the slabs; without them the mass waits an interval.
+  std::vector<Insert> ins;
+  if (fs.occupants_sent()) {
+    std::vector<Sphere> occ;
+    occ.reserve(static_cast<size_t>(fs.occupants_size() / 4));
+    for (int i = 0; i + 3 < fs.occupants_size(); i += 4)
+      occ.push_back({{fs.occupants(i), fs.occupants(i + 1), fs.occupants(i + 2)}, fs.occupants(i + 3)});
+    ins = r.planner.plan(k + 1, occ);
+  }
+  fine.set_want_occupants(r.planner.wants_occupants(k + 1));
+  r.last = ins;
+  r.log.inserted = ins.size();
+  r.log.inserted_mass = 0.0;
+  for (const auto& p : ins) {
+    for (double v : {p.x.x, p.x.y, p.x.z, p.r, p.v.x, p.v.y, p.v.z}) fine.add_insert(v);
+    r.log.inserted_mass += r.planner.mass_of(p.r);
+  }
+}
+
+// PI on the normal stress across each boundary face (sigma_zz under the top, sigma_xx / sigma_yy inside an
+// open side), traction and speed limit for the fine level.
+void Coupler::transition_layer(Region& r, const bus::GridStats& cs, const bus::GridStats& fs,
+                               bus::GridCommands& fine) const {
+  const size_t nf = r.geo.faces(), nt = r.geo.top_faces();
+  r.log.setpoint.assign(nt, 0.0);
+  r.log.measured.assign(nt, 0.0);
+  r.log.traction.assign(nt, 0.0);
+  for (size_t f = 0; f < nf; ++f) {
+    const int c = static_cast<int>(r.geo.cell_of_face(f));
+    const int nn = r.geo.normal_axis(f);  // xx yy zz
+    const double set = cs.cell_stress(6 * c + nn), pv = fs.cell_stress(6 * c + nn);
+    const bool active = cs.cell_volume_fraction(c) >= r.cfg.phi_min && fs.cell_volume_fraction(c) >= r.cfg.phi_min;
+    if (active) r.pi[f].update(set, pv, cfg_.interval);
+    else r.pi[f].hold();
+    if (f < nt) {
+      r.log.setpoint[f] = set;
+      r.log.measured[f] = pv;
+      r.log.traction[f] = r.pi[f].output;
+    }
+    fine.add_traction(r.pi[f].output);
+    fine.add_speed_limit(cs.cell_max_speed(c));
+  }
+}
+
+// Correction cells: PI controller toward the fine velocity, for the coarse level.
+void Coupler::correct_coarse(Region& r, const bus::GridStats& cs, const bus::GridStats& fs,
+                             bus::GridCommands& coarse) const {
+  const size_t nc = r.geo.cells();
+  r.log.acceleration.assign(nc, Vec3{});
+  for (size_t c = 0; c < nc; ++c) {
+    Vec3 a{};
+    const double phi_c = cs.cell_volume_fraction(static_cast<int>(c)),
+                 phi_f = fs.cell_volume_fraction(static_cast<int>(c));
+    if (!r.geo.is_transition(c) && r.cfg.correct != RegionConfig::Correct::None && phi_c >= r.cfg.phi_min &&
+        phi_f >= r.cfg.phi_min) {
+      const bool mass_flow = r.cfg.correct == RegionConfig::Correct::MassFlow &&
+                             r.geo.cell_centre(c).z >= r.cfg.velocity_only_below;
+      const Vec3 target = correction_target(vec_at(fs.cell_velocity(), c), phi_f, phi_c, mass_flow);
+      a = r.cfg.velocity.update(target, vec_at(cs.cell_velocity(), c), r.vint[c], cfg_.interval);
+    } else {
+      r.vint[c] = Vec3{};  // an uncorrected cell starts afresh
+    }
+    r.log.acceleration[c] = a;
+    coarse.add_acceleration(a.x);
+    coarse.add_acceleration(a.y);
+    coarse.add_acceleration(a.z);
+  }
+}
+
 std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vector<bus::IntervalStats>& stats) {
   if (stats.size() != cfg_.levels.size()) throw std::invalid_argument("coupler: statistics of every level needed");
   for (size_t l = 0; l < stats.size(); ++l)
@@ -153,81 +232,13 @@ std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vecto
     const bus::GridStats& fs = grid_stats(stats[lf], ri, lf);
     check(cs, r, true, lc);
     check(fs, r, false, lf);
-
-    // Coarse -> fine: insertion list.
-    r.planner.add_crossings(to_vector(cs.face_mass()), to_vector(cs.face_momentum()), to_vector(cs.face_moment()),
-                            {cs.face_histogram().begin(), cs.face_histogram().end()});
-    r.planner.add_returned(to_vector(fs.face_returned_mass()));
-    r.log.returned_mass = 0.0;
-    for (double m : fs.face_returned_mass()) r.log.returned_mass += m;
-    r.log.coarse_mass = cs.mass_in_region();
-    r.log.fine_mass = fs.mass_in_region();
-    r.log.fine_leaving = fs.mass_leaving();
-    // Placing needs the fine particles in the slabs; without them the mass waits an interval.
-    std::vector<Insert> ins;
-    if (fs.occupants_sent()) {
-      std::vector<Sphere> occ;
-      occ.reserve(static_cast<size_t>(fs.occupants_size() / 4));
-      for (int i = 0; i + 3 < fs.occupants_size(); i += 4)
-        occ.push_back({{fs.occupants(i), fs.occupants(i + 1), fs.occupants(i + 2)}, fs.occupants(i + 3)});
-      ins = r.planner.plan(k + 1, occ);
-    }
     bus::GridCommands& fine = *out[lf].add_grids();
     fine.set_grid(static_cast<uint32_t>(ri));
-    fine.set_want_occupants(r.planner.wants_occupants(k + 1));
-    r.last = ins;
-    r.log.inserted = ins.size();
-    r.log.inserted_mass = 0.0;
-    for (const auto& p : ins) {
-      for (double v : {p.x.x, p.x.y, p.x.z, p.r, p.v.x, p.v.y, p.v.z}) fine.add_insert(v);
-      r.log.inserted_mass += r.planner.mass_of(p.r);
-    }
-
-    // Transition layer: PI on the normal stress across each boundary face (sigma_zz under the top,
-    // sigma_xx / sigma_yy inside an open side), traction and speed limit for the fine level.
-    const size_t nf = r.geo.faces(), nt = r.geo.top_faces();
-    r.log.setpoint.assign(nt, 0.0);
-    r.log.measured.assign(nt, 0.0);
-    r.log.traction.assign(nt, 0.0);
-    for (size_t f = 0; f < nf; ++f) {
-      const int c = static_cast<int>(r.geo.cell_of_face(f));
-      const int nn = r.geo.normal_axis(f);  // xx yy zz
-      const double set = cs.cell_stress(6 * c + nn), pv = fs.cell_stress(6 * c + nn);
-      const bool active = cs.cell_volume_fraction(c) >= r.cfg.phi_min && fs.cell_volume_fraction(c) >= r.cfg.phi_min;
-      if (active) r.pi[f].update(set, pv, cfg_.interval);
-      else r.pi[f].hold();
-      if (f < nt) {
-        r.log.setpoint[f] = set;
-        r.log.measured[f] = pv;
-        r.log.traction[f] = r.pi[f].output;
-      }
-      fine.add_traction(r.pi[f].output);
-      fine.add_speed_limit(cs.cell_max_speed(c));
-    }
-
-    // Correction cells: PI controller toward the fine velocity, for the coarse level.
+    plan_insertions(r, cs, fs, k, fine);
+    transition_layer(r, cs, fs, fine);
     bus::GridCommands& coarse = *out[lc].add_grids();
     coarse.set_grid(static_cast<uint32_t>(ri));
-    const size_t nc = r.geo.cells();
-    r.log.acceleration.assign(nc, Vec3{});
-    for (size_t c = 0; c < nc; ++c) {
-      Vec3 a{};
-      const double phi_c = cs.cell_volume_fraction(static_cast<int>(c)),
-                   phi_f = fs.cell_volume_fraction(static_cast<int>(c));
-      if (!r.geo.is_transition(c) && r.cfg.correct != RegionConfig::Correct::None && phi_c >= r.cfg.phi_min &&
-          phi_f >= r.cfg.phi_min) {
-        const bool mass_flow = r.cfg.correct == RegionConfig::Correct::MassFlow &&
-                               r.geo.cell_centre(c).z >= r.cfg.velocity_only_below;
-        const Vec3 target = correction_target(vec_at(fs.cell_velocity(), c), phi_f, phi_c, mass_flow);
-        a = r.cfg.velocity.update(target, vec_at(cs.cell_velocity(), c), r.vint[c], cfg_.interval);
-      } else {
-        r.vint[c] = Vec3{};  // an uncorrected cell starts afresh
-      }
-      r.log.acceleration[c] = a;
-      coarse.add_acceleration(a.x);
-      coarse.add_acceleration(a.y);
-      coarse.add_acceleration(a.z);
-    }
+    correct_coarse(r, cs, fs, coarse);
   }
   return out;
 }

@@ -96,6 +96,12 @@ class Coupler {
   };
   const bus::GridStats& grid_stats(const bus::IntervalStats& s, size_t region, size_t level) const;
   void check(const bus::GridStats& g, const Region& r, bool coarse, size_t level) const;
+  // The three halves of one region's interval: the fine level's insertion list, the transition layer's
+  // tractions and speed limits, the coarse level's correction accelerations.
+  void plan_insertions(Region& r, const bus::GridStats& cs, const bus::GridStats& fs, uint64_t k,
+                       bus::GridCommands& fine) const;
+  void transition_layer(Region& r, const bus::GridStats& cs, const bus::GridStats& fs, bus::GridCommands& fine) const;
+  void correct_coarse(Region& r, const bus::GridStats& cs, const bus::GridStats& fs, bus::GridCommands& coarse) const;
   // Every value finite, histogram counts and occupant radii within what a level can send (a stray or
   // damaged message must be refused, not planned with).
   void check_values(const bus::GridStats& g, const Region& r, size_t level) const;

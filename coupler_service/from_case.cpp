@@ -5,16 +5,11 @@
 #include <set>
 #include <stdexcept>
 
+#include "scene/materials_from_case.hpp"
 #include "scene/walls_from_case.hpp"
 
 namespace mlcg::coupling {
 namespace {
-
-MaterialTable materials_of(const config::CaseSpec& cs) {
-  std::vector<Material> mats;
-  for (const auto& m : cs.materials) mats.push_back({m.name, m.youngs_modulus, m.poisson_ratio, m.density});
-  return MaterialTable(std::move(mats));
-}
 
 // Cells with any of n^3 sample points reachable from `inside` without crossing a wall.
 std::vector<uint32_t> clipped_cells(const WallSet& walls, const Vec3& origin, double h, uint32_t nx, uint32_t ny,
@@ -89,6 +84,94 @@ void inside_fractions(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& i
                                                           (geo.is_top(f) ? -1e-6 : 1e-6) * h)));
 }
 
+// The sizes and density the coupler plans with: alpha = 1 radii of the case's insertions and particles, the
+// density of the first insertion's material.
+struct ParticleSizes {
+  double r_min = 1e300, r_max = 0.0, density = 0.0;
+};
+
+ParticleSizes particle_sizes(const config::CaseSpec& cs, const MaterialTable& mt) {
+  ParticleSizes s;
+  for (const auto& in : cs.insertions) {
+    s.r_min = std::min(s.r_min, in.radius.smallest());
+    s.r_max = std::max(s.r_max, in.radius.largest());
+    if (s.density == 0.0) s.density = mt.material(mt.index_of(in.material)).density;
+  }
+  for (const auto& p : cs.particles) {
+    s.r_min = std::min(s.r_min, p.radius);
+    s.r_max = std::max(s.r_max, p.radius);
+  }
+  if (s.r_max <= 0.0 || s.density <= 0.0)
+    throw std::invalid_argument(cs.path + ": a coupled case needs an [[insertion]] (it sets the particle sizes)");
+  return s;
+}
+
+// The region's grid: cells clipped to the geometry, open sides, insertion and fade depths, radius bins.
+void fill_grid(bus::CouplingGrid& gr, const config::CouplingRegionSpec& rs, const WallSet& walls, int lc, int lf,
+               double ac, double af, const ParticleSizes& sizes) {
+  const double h = rs.cell_size;
+  const Vec3 ext = rs.max - rs.min;
+  const auto cells_along = [h](double e) { return static_cast<uint32_t>(std::max(1.0, std::ceil(e / h - 1e-9))); };
+  gr.set_coarse_level(static_cast<uint32_t>(lc));
+  gr.set_fine_level(static_cast<uint32_t>(lf));
+  gr.set_ox(rs.min.x);
+  gr.set_oy(rs.min.y);
+  gr.set_oz(rs.min.z);
+  gr.set_cell_size(h);
+  gr.set_nx(cells_along(ext.x));
+  gr.set_ny(cells_along(ext.y));
+  gr.set_nz(cells_along(ext.z));
+  const double top = rs.min.z + gr.nz() * h;
+  const Vec3 inside = rs.inside ? *rs.inside
+                                : Vec3{rs.min.x + 0.5 * gr.nx() * h, rs.min.y + 0.5 * gr.ny() * h, top - 0.5 * h};
+  const auto cells = clipped_cells(walls, rs.min, h, gr.nx(), gr.ny(), gr.nz(), inside);
+  const uint32_t top_layer = gr.nx() * gr.ny() * (gr.nz() - 1);
+  if (std::none_of(cells.begin(), cells.end(), [&](uint32_t c) { return c >= top_layer; }))
+    throw std::invalid_argument(rs.loc.str() + ": no cell of the region's top layer lies inside the geometry "
+                                "(check min/max, or give `inside` = a point inside the walls)");
+  for (uint32_t c : cells) gr.add_cells(c);
+  open_sides(walls, gr, inside);
+  inside_fractions(walls, gr, inside);
+  for (double v : {inside.x, inside.y, inside.z}) gr.add_inside_point(v);
+  const double d_coarse = 2.0 * sizes.r_max * ac, d_fine = 2.0 * sizes.r_max * af;
+  gr.set_insert_depth(rs.insert_depth > 0.0 ? rs.insert_depth : std::min(2.0 * d_coarse, h));
+  gr.set_fade_depth(rs.fade * d_fine);
+  const int bins = sizes.r_min == sizes.r_max ? 1 : rs.radius_bins;
+  for (int b = 0; b <= bins; ++b) gr.add_radius_bins(ac * (sizes.r_min + (sizes.r_max - sizes.r_min) * b / bins));
+}
+
+// One region's grid, insertion planner and controllers; `index` is its place among the case's regions.
+RegionConfig region_config(const config::CaseSpec& cs, const config::CouplingRegionSpec& rs, const WallSet& walls,
+                           const ParticleSizes& sizes, size_t index) {
+  const auto index_of = [&](const std::string& name) {
+    for (size_t l = 0; l < cs.levels.size(); ++l)
+      if (cs.levels[l].name == name) return static_cast<int>(l);
+    return -1;
+  };
+  const int lc = index_of(rs.coarse), lf = index_of(rs.fine);
+  if (lc < 0 || lf < 0) throw std::invalid_argument(rs.loc.str() + ": coupling region names an unknown level");
+  const double ac = cs.levels[static_cast<size_t>(lc)].alpha, af = cs.levels[static_cast<size_t>(lf)].alpha;
+  const double g = norm(cs.gravity), height = cs.domain.max.z - cs.domain.min.z;
+  RegionConfig rc;
+  fill_grid(rc.grid, rs, walls, lc, lf, ac, af, sizes);
+  rc.planner.ratio = ac / af;
+  rc.planner.density = sizes.density;
+  rc.planner.insert_depth = rc.grid.insert_depth();
+  rc.planner.radius_bins.assign(rc.grid.radius_bins().begin(), rc.grid.radius_bins().end());
+  rc.planner.seed = cs.seed ^ (0x51ed2701ULL * (index + 1));
+  rc.pi.kp = rs.kp;
+  rc.pi.ki = rs.ki;
+  rc.pi.limit = rs.traction_limit > 0.0 ? rs.traction_limit : sizes.density * g * height;
+  rc.velocity.gain = rs.velocity_gain;
+  rc.velocity.ki = rs.velocity_ki;
+  rc.velocity.limit = rs.acceleration_limit > 0.0 ? rs.acceleration_limit : 5.0 * g;
+  rc.correct = rs.correct == "none"       ? RegionConfig::Correct::None
+               : rs.correct == "velocity" ? RegionConfig::Correct::Velocity
+                                          : RegionConfig::Correct::MassFlow;
+  rc.velocity_only_below = rs.velocity_only_below;
+  return rc;
+}
+
 }  // namespace
 
 CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
@@ -103,7 +186,7 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
   for (const auto& l : cs.levels) cfg.levels.push_back({l.name, l.alpha, l.dt, static_cast<uint32_t>(l.ranks)});
 
   // Walls an event removes (an orifice lid) do not clip the grid or block insertion.
-  const MaterialTable mt = materials_of(cs);
+  const MaterialTable mt = materials_of_case(cs);
   auto walls = std::make_shared<WallSet>(walls_from_case(cs, mt));
   std::set<std::string> removed;
   for (const auto& e : cs.events) removed.insert(e.remove_walls.begin(), e.remove_walls.end());
@@ -113,80 +196,8 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
   out.fits = [walls](const Vec3& anchor, const Vec3& x, double r) {
     return !walls->touches(x, r) && !walls->crosses(anchor, x);
   };
-
-  // Particle sizes and density come from the case's insertions (alpha = 1 radii).
-  double r_min = 1e300, r_max = 0.0, density = 0.0;
-  for (const auto& in : cs.insertions) {
-    r_min = std::min(r_min, in.radius.smallest());
-    r_max = std::max(r_max, in.radius.largest());
-    if (density == 0.0) density = mt.material(mt.index_of(in.material)).density;
-  }
-  for (const auto& p : cs.particles) {
-    r_min = std::min(r_min, p.radius);
-    r_max = std::max(r_max, p.radius);
-  }
-  if (r_max <= 0.0 || density <= 0.0)
-    throw std::invalid_argument(cs.path + ": a coupled case needs an [[insertion]] (it sets the particle sizes)");
-  const double g = norm(cs.gravity), height = cs.domain.max.z - cs.domain.min.z;
-
-  for (const auto& rs : cp.regions) {
-    const auto index_of = [&](const std::string& name) {
-      for (size_t l = 0; l < cs.levels.size(); ++l)
-        if (cs.levels[l].name == name) return static_cast<int>(l);
-      return -1;
-    };
-    const int lc = index_of(rs.coarse), lf = index_of(rs.fine);
-    if (lc < 0 || lf < 0) throw std::invalid_argument(rs.loc.str() + ": coupling region names an unknown level");
-    const double ac = cs.levels[static_cast<size_t>(lc)].alpha, af = cs.levels[static_cast<size_t>(lf)].alpha;
-    RegionConfig rc;
-    bus::CouplingGrid& gr = rc.grid;
-    const double h = rs.cell_size;
-    const Vec3 ext = rs.max - rs.min;
-    const auto cells_along = [h](double e) { return static_cast<uint32_t>(std::max(1.0, std::ceil(e / h - 1e-9))); };
-    gr.set_coarse_level(static_cast<uint32_t>(lc));
-    gr.set_fine_level(static_cast<uint32_t>(lf));
-    gr.set_ox(rs.min.x);
-    gr.set_oy(rs.min.y);
-    gr.set_oz(rs.min.z);
-    gr.set_cell_size(h);
-    gr.set_nx(cells_along(ext.x));
-    gr.set_ny(cells_along(ext.y));
-    gr.set_nz(cells_along(ext.z));
-    const double top = rs.min.z + gr.nz() * h;
-    const Vec3 inside = rs.inside ? *rs.inside
-                                  : Vec3{rs.min.x + 0.5 * gr.nx() * h, rs.min.y + 0.5 * gr.ny() * h, top - 0.5 * h};
-    const auto cells = clipped_cells(*walls, rs.min, h, gr.nx(), gr.ny(), gr.nz(), inside);
-    const uint32_t top_layer = gr.nx() * gr.ny() * (gr.nz() - 1);
-    if (std::none_of(cells.begin(), cells.end(), [&](uint32_t c) { return c >= top_layer; }))
-      throw std::invalid_argument(rs.loc.str() + ": no cell of the region's top layer lies inside the geometry "
-                                  "(check min/max, or give `inside` = a point inside the walls)");
-    for (uint32_t c : cells) gr.add_cells(c);
-    open_sides(*walls, gr, inside);
-    inside_fractions(*walls, gr, inside);
-    for (double v : {inside.x, inside.y, inside.z}) gr.add_inside_point(v);
-    const double d_coarse = 2.0 * r_max * ac, d_fine = 2.0 * r_max * af;
-    gr.set_insert_depth(rs.insert_depth > 0.0 ? rs.insert_depth : std::min(2.0 * d_coarse, h));
-    gr.set_fade_depth(rs.fade * d_fine);
-    const int bins = r_min == r_max ? 1 : rs.radius_bins;
-    for (int b = 0; b <= bins; ++b) gr.add_radius_bins(ac * (r_min + (r_max - r_min) * b / bins));
-
-    rc.planner.ratio = ac / af;
-    rc.planner.density = density;
-    rc.planner.insert_depth = gr.insert_depth();
-    rc.planner.radius_bins.assign(gr.radius_bins().begin(), gr.radius_bins().end());
-    rc.planner.seed = cs.seed ^ (0x51ed2701ULL * (cfg.regions.size() + 1));
-    rc.pi.kp = rs.kp;
-    rc.pi.ki = rs.ki;
-    rc.pi.limit = rs.traction_limit > 0.0 ? rs.traction_limit : density * g * height;
-    rc.velocity.gain = rs.velocity_gain;
-    rc.velocity.ki = rs.velocity_ki;
-    rc.velocity.limit = rs.acceleration_limit > 0.0 ? rs.acceleration_limit : 5.0 * g;
-    rc.correct = rs.correct == "none" ? RegionConfig::Correct::None
-                 : rs.correct == "velocity" ? RegionConfig::Correct::Velocity
-                                            : RegionConfig::Correct::MassFlow;
-    rc.velocity_only_below = rs.velocity_only_below;
-    cfg.regions.push_back(std::move(rc));
-  }
+  const ParticleSizes sizes = particle_sizes(cs, mt);
+  for (const auto& rs : cp.regions) cfg.regions.push_back(region_config(cs, rs, *walls, sizes, cfg.regions.size()));
   return out;
 }
 

@@ -10,39 +10,32 @@
 
 namespace mlcg::launcher {
 
-Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
-  using Clock = std::chrono::steady_clock;
-  const auto after = [](double s) { return Clock::now() + std::chrono::milliseconds(static_cast<int64_t>(s * 1000)); };
-  catch_signals();
-  take_signal();
-  become_subreaper();
-  Outcome out;
-  for (size_t i = 0; i < members.size(); ++i) {
-    if (i == 1 && opt.coupler_started) opt.coupler_started(members);
-    Member& m = members[i];
-    m.pid = spawn(m.argv);
-    m.done = false;
-    m.state = "running";
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+Clock::time_point after(double s) { return Clock::now() + std::chrono::milliseconds(static_cast<int64_t>(s * 1000)); }
+
+// One attempt's state while it runs: who is done, whether the run is stopping (interrupt, swap) or failing,
+// and the deadlines of both.
+class Attempt {
+ public:
+  Attempt(std::vector<Member>& members, const SuperviseOptions& opt) : members_(members), opt_(opt) {}
+
+  void start() {
+    for (size_t i = 0; i < members_.size(); ++i) {
+      if (i == 1 && opt_.coupler_started) opt_.coupler_started(members_);
+      Member& m = members_[i];
+      m.pid = spawn(m.argv);
+      m.done = false;
+      m.state = "running";
+    }
   }
-  bool aborting = false;
-  int coupler_code = -1;
-  auto give_up = Clock::time_point::max(), kill_at = Clock::time_point::max();
-  const auto stop_all = [&](int sig) {
-    for (auto& m : members)
-      if (!m.done) {
-        kill(-m.pid, sig);
-        if (sig != SIGKILL) kill(-m.pid, SIGCONT);  // a stopped (hung) process handles the signal only when woken
-        m.state = "stopping";
-      }
-  };
-  const auto abort_all = [&] {
-    aborting = true;
-    stop_all(SIGTERM);
-    kill_at = after(opt.kill_grace);
-  };
-  for (;;) {
+
+  // Reaps the members that ended; the first failure stops every other one. The members still running.
+  size_t reap() {
     size_t running = 0;
-    for (auto& m : members) {
+    for (auto& m : members_) {
       if (m.done) continue;
       int status = 0;
       if (waitpid(m.pid, &status, WNOHANG) != m.pid) {
@@ -53,56 +46,108 @@ Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
       m.state = describe_exit(status);
       kill(-m.pid, SIGTERM);  // what it leaves behind in its group (the ranks of a killed mpirun)
       const int code = exit_code_of(status);
-      if (&m == &members[0]) coupler_code = code;
-      if (code != 0 && !out.interrupted && !out.stopped_for_swap && !aborting) {
-        out.failed = m.name + " (pid " + std::to_string(m.pid) + ") " + m.state;
-        out.failed_name = m.name;
-        out.exit_code = code;
-        std::fprintf(stderr, "\nmlcg: %s; stopping every other process\n", out.failed.c_str());
+      if (&m == &members_[0]) coupler_code_ = code;
+      if (code != 0 && !out_.interrupted && !out_.stopped_for_swap && !aborting_) {
+        out_.failed = m.name + " (pid " + std::to_string(m.pid) + ") " + m.state;
+        out_.failed_name = m.name;
+        out_.exit_code = code;
+        std::fprintf(stderr, "\nmlcg: %s; stopping every other process\n", out_.failed.c_str());
         abort_all();
       }
     }
-    if (running == 0) break;
-    const bool quiet_stop = !out.interrupted && !out.stopped_for_swap && !aborting;
-    if (quiet_stop && opt.want_stop && opt.want_stop()) {
-      out.stopped_for_swap = true;
-      if (!members[0].done) kill(-members[0].pid, SIGINT);
-      give_up = after(opt.interrupt_grace);
+    return running;
+  }
+
+  // A swap the launcher was asked for, and the user's interrupts (a second one stops at once).
+  void handle_requests() {
+    const bool quiet_stop = !out_.interrupted && !out_.stopped_for_swap && !aborting_;
+    if (quiet_stop && opt_.want_stop && opt_.want_stop()) {
+      out_.stopped_for_swap = true;
+      stop_at_checkpoint();
     }
-    if (take_signal() != 0) {
-      if (!out.interrupted && !aborting) {
-        out.stopped_for_swap = false;  // the user's stop wins: no swap
-        out.interrupted = true;
-        std::fprintf(stderr, "\nmlcg: interrupted: every level writes a consistent checkpoint at the next coupling "
-                             "interval, then stops (interrupt again to stop at once)\n");
-        if (!members[0].done) kill(-members[0].pid, SIGINT);
-        give_up = after(opt.interrupt_grace);
-      } else if (!aborting) {
-        std::fprintf(stderr, "\nmlcg: stopping every process now\n");
-        abort_all();
-      }
+    if (take_signal() == 0) return;
+    if (!out_.interrupted && !aborting_) {
+      out_.stopped_for_swap = false;  // the user's stop wins: no swap
+      out_.interrupted = true;
+      std::fprintf(stderr, "\nmlcg: interrupted: every level writes a consistent checkpoint at the next coupling "
+                           "interval, then stops (interrupt again to stop at once)\n");
+      stop_at_checkpoint();
+    } else if (!aborting_) {
+      std::fprintf(stderr, "\nmlcg: stopping every process now\n");
+      abort_all();
     }
+  }
+
+  void enforce_deadlines() {
     // The coupler is gone (it stopped the levels or failed): whoever is left gets a few seconds.
-    if ((out.interrupted || out.stopped_for_swap) && !aborting && members[0].done && give_up > after(10.0))
-      give_up = after(10.0);
-    if (!aborting && Clock::now() > give_up) {
+    if ((out_.interrupted || out_.stopped_for_swap) && !aborting_ && members_[0].done && give_up_ > after(10.0))
+      give_up_ = after(10.0);
+    if (!aborting_ && Clock::now() > give_up_) {
       std::fprintf(stderr, "\nmlcg: the stop with a consistent checkpoint did not finish; stopping every process\n");
       abort_all();
     }
-    if (Clock::now() > kill_at) {
+    if (Clock::now() > kill_at_) {
       stop_all(SIGKILL);
-      kill_at = Clock::time_point::max();
+      kill_at_ = Clock::time_point::max();
     }
-    if (opt.tick)
-      opt.tick(members, out.interrupted ? "stopping" : aborting ? "failing" : out.stopped_for_swap ? "swapping" : "running");
+  }
+
+  const char* phase() const {
+    return out_.interrupted ? "stopping" : aborting_ ? "failing" : out_.stopped_for_swap ? "swapping" : "running";
+  }
+
+  Outcome finish() {
+    for (const auto& m : members_) kill(-m.pid, SIGKILL);  // no process of the attempt outlives it
+    end_strays(opt_.kill_grace);
+    // The run reached its end before the stop: nothing to swap.
+    if (out_.stopped_for_swap && coupler_code_ == 0 && out_.failed.empty()) out_.stopped_for_swap = false;
+    if (out_.interrupted && out_.exit_code == 0) out_.exit_code = 130;
+    return out_;
+  }
+
+ private:
+  // The coupler stops the hierarchy at the next consistent checkpoint.
+  void stop_at_checkpoint() {
+    if (!members_[0].done) kill(-members_[0].pid, SIGINT);
+    give_up_ = after(opt_.interrupt_grace);
+  }
+  void stop_all(int sig) {
+    for (auto& m : members_)
+      if (!m.done) {
+        kill(-m.pid, sig);
+        if (sig != SIGKILL) kill(-m.pid, SIGCONT);  // a stopped (hung) process handles the signal only when woken
+        m.state = "stopping";
+      }
+  }
+  void abort_all() {
+    aborting_ = true;
+    stop_all(SIGTERM);
+    kill_at_ = after(opt_.kill_grace);
+  }
+
+  std::vector<Member>& members_;
+  const SuperviseOptions& opt_;
+  Outcome out_;
+  bool aborting_ = false;
+  int coupler_code_ = -1;
+  Clock::time_point give_up_ = Clock::time_point::max(), kill_at_ = Clock::time_point::max();
+};
+
+}  // namespace
+
+Outcome supervise(std::vector<Member>& members, const SuperviseOptions& opt) {
+  catch_signals();
+  take_signal();
+  become_subreaper();
+  Attempt a(members, opt);
+  a.start();
+  while (a.reap() > 0) {
+    a.handle_requests();
+    a.enforce_deadlines();
+    if (opt.tick) opt.tick(members, a.phase());
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  for (const auto& m : members) kill(-m.pid, SIGKILL);  // no process of the attempt outlives it
-  end_strays(opt.kill_grace);
-  // The run reached its end before the stop: nothing to swap.
-  if (out.stopped_for_swap && coupler_code == 0 && out.failed.empty()) out.stopped_for_swap = false;
-  if (out.interrupted && out.exit_code == 0) out.exit_code = 130;
-  return out;
+  return a.finish();
 }
 
 }  // namespace mlcg::launcher

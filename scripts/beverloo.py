@@ -16,7 +16,7 @@ The orifice: [orifice] (center, diameter or width + length) when the case has it
 the opening under a wall an event removes (a disk lid): the narrowest cone bottom,
 cylinder bottom or disk hole (inner_radius) centred within the lid's radius, else the
 lid's own diameter; else the lowest cone narrowing to a bottom radius > 0. The same
-rules as `mlcg run`'s region checks (dem_level/config/region_rules.cpp).
+rules as `mlcg run`'s region checks (common/config/region_rules.cpp).
 Beverloo's law is for flat-bottomed bins; hoppers (cones, wedges) discharge faster.
 Plain python3 (3.11+: tomllib), no packages.
 """

@@ -10,11 +10,9 @@
 #include "core/material.hpp"
 #include "core/particles.hpp"
 #include "level/stability.hpp"
+#include "scene/materials_from_case.hpp"
 
 namespace mlcg {
-
-// The materials of the case, indexed as the level indexes them.
-MaterialTable materials_of_case(const config::CaseSpec& cs);
 
 // The particles an insertion makes at coarse-grain ratio `alpha`: material, extreme radii, speed.
 ParticleKind insertion_kind(const config::InsertionSpec& in, double alpha, const MaterialTable& mt);
