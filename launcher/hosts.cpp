@@ -242,93 +242,129 @@ std::optional<HostFile> slurm_hosts(const EnvLookup& lookup) {
   return hf;
 }
 
+namespace {
+
+using Where = std::map<std::string, std::vector<std::pair<size_t, int>>>;
+
+// Places the coupler and the levels on the hosts, slot by slot: the coupler, the levels a host names, then
+// the others where they fit.
+class Placer {
+ public:
+  Placer(const HostFile& hf, const std::vector<Host>& hosts, Where& where)
+      : hf_(hf), hosts_(hosts), where_(where), used_(hosts.size(), 0) {}
+
+  std::string at(const Host& h) const { return fmt::format("{}:{}: host '{}'", hf_.path, h.line, h.name); }
+
+  // coupler=1 on one host, else the first.
+  void coupler() {
+    for (size_t h = 0; h < hosts_.size(); ++h) {
+      if (!hosts_[h].coupler) continue;
+      if (where_.count("coupler")) throw HostError(at(hosts_[h]) + ": the coupler is already placed on another host");
+      place("coupler", h, 1);
+    }
+    if (!where_.count("coupler")) place("coupler", 0, 1);
+  }
+
+  // levels=: a level named on one host runs there; named on several, its ranks fill them in the file's order
+  // (each host up to its free slots, the last one takes the rest).
+  void named_levels(const config::CaseSpec& cs) {
+    std::vector<std::pair<std::string, std::vector<size_t>>> named;
+    for (size_t h = 0; h < hosts_.size(); ++h)
+      for (const auto& name : hosts_[h].levels) {
+        const auto l = std::find_if(cs.levels.begin(), cs.levels.end(), [&](const auto& x) { return x.name == name; });
+        if (l == cs.levels.end()) {
+          std::string all;
+          for (const auto& x : cs.levels) all += (all.empty() ? "" : ", ") + x.name;
+          throw HostError(at(hosts_[h]) + ": levels=" + name + ": the case has no such level (it has " + all + ")");
+        }
+        auto n = std::find_if(named.begin(), named.end(), [&](const auto& x) { return x.first == name; });
+        if (n == named.end()) n = named.insert(named.end(), {name, {}});
+        if (std::find(n->second.begin(), n->second.end(), h) != n->second.end())
+          throw HostError(at(hosts_[h]) + ": level '" + name + "' is placed twice");
+        n->second.push_back(h);
+      }
+    for (const auto& [name, on] : named) {
+      const auto& l = *std::find_if(cs.levels.begin(), cs.levels.end(), [&](const auto& x) { return x.name == name; });
+      int left = l.ranks;
+      for (size_t k = 0; k < on.size(); ++k) {
+        const int n = k + 1 == on.size() ? left : std::min(left, free_on(on[k]));
+        if (n == 0)
+          throw HostError(fmt::format("{}: levels={}: the level's {} rank(s) already fill the hosts named before "
+                                      "this one; name it on fewer hosts",
+                                      at(hosts_[on[k]]), name, l.ranks));
+        place(name, on[k], n);
+        left -= n;
+      }
+    }
+  }
+
+  void check_fit() const {
+    for (size_t h = 0; h < hosts_.size(); ++h)
+      if (used_[h] > hosts_[h].slots)
+        throw HostError(fmt::format("{}: the processes placed there need {} slots, it has slots={}", at(hosts_[h]),
+                                    used_[h], hosts_[h].slots));
+  }
+
+  // The others: the first host with room for the whole level, else (a level larger than any host's free
+  // slots) the hosts with free slots in order, each filled, as Open MPI maps ranks by slot.
+  void other_levels(const config::CaseSpec& cs) {
+    for (const auto& l : cs.levels) {
+      if (where_.count(l.name)) continue;
+      size_t h = 0;
+      while (h < hosts_.size() && free_on(h) < l.ranks) ++h;
+      if (h < hosts_.size()) {
+        place(l.name, h, l.ranks);
+        continue;
+      }
+      int total = 0;
+      for (size_t k = 0; k < hosts_.size(); ++k) total += free_on(k);
+      if (total < l.ranks)
+        throw HostError(fmt::format("{}: no host has {} free slot(s) for level '{}' ({} rank(s)), and all hosts "
+                                    "together have {}; add slots or hosts",
+                                    hf_.path, l.ranks, l.name, l.ranks, total));
+      int left = l.ranks;
+      for (size_t k = 0; k < hosts_.size() && left > 0; ++k) {
+        const int n = std::min(left, free_on(k));
+        if (n == 0) continue;
+        place(l.name, k, n);
+        left -= n;
+      }
+    }
+  }
+
+ private:
+  int free_on(size_t h) const { return std::max(0, hosts_[h].slots - used_[h]); }
+  void place(const std::string& who, size_t h, int ranks) {
+    where_[who].emplace_back(h, ranks);
+    used_[h] += ranks;
+  }
+
+  const HostFile& hf_;
+  const std::vector<Host>& hosts_;
+  Where& where_;
+  std::vector<int> used_;
+};
+
+}  // namespace
+
 Placement::Placement(const HostFile& hf, const config::CaseSpec& cs)
     : hosts_(hf.hosts), rsh_agent_(hf.rsh_agent), mca_(hf.mca) {
   curve_ = true;  // across hosts the bus is never left open
-  const auto at = [&](const Host& h) { return fmt::format("{}:{}: host '{}'", hf.path, h.line, h.name); };
-  std::vector<int> used(hosts_.size(), 0);
-  const auto free_on = [&](size_t h) { return std::max(0, hosts_[h].slots - used[h]); };
-  const auto place = [&](const std::string& who, size_t h, int ranks) {
-    where_[who].emplace_back(h, ranks);
-    used[h] += ranks;
-  };
-  for (size_t h = 0; h < hosts_.size(); ++h) {
-    if (!hosts_[h].coupler) continue;
-    if (where_.count("coupler")) throw HostError(at(hosts_[h]) + ": the coupler is already placed on another host");
-    place("coupler", h, 1);
-  }
-  if (!where_.count("coupler")) place("coupler", 0, 1);
-  // levels=: a level named on one host runs there; named on several, its ranks fill them in the file's order
-  // (each host up to its free slots, the last one takes the rest).
-  std::vector<std::pair<std::string, std::vector<size_t>>> named;
-  for (size_t h = 0; h < hosts_.size(); ++h)
-    for (const auto& name : hosts_[h].levels) {
-      const auto l = std::find_if(cs.levels.begin(), cs.levels.end(), [&](const auto& x) { return x.name == name; });
-      if (l == cs.levels.end()) {
-        std::string all;
-        for (const auto& x : cs.levels) all += (all.empty() ? "" : ", ") + x.name;
-        throw HostError(at(hosts_[h]) + ": levels=" + name + ": the case has no such level (it has " + all + ")");
-      }
-      auto n = std::find_if(named.begin(), named.end(), [&](const auto& x) { return x.first == name; });
-      if (n == named.end()) n = named.insert(named.end(), {name, {}});
-      if (std::find(n->second.begin(), n->second.end(), h) != n->second.end())
-        throw HostError(at(hosts_[h]) + ": level '" + name + "' is placed twice");
-      n->second.push_back(h);
-    }
-  for (const auto& [name, on] : named) {
-    const auto& l = *std::find_if(cs.levels.begin(), cs.levels.end(), [&](const auto& x) { return x.name == name; });
-    int left = l.ranks;
-    for (size_t k = 0; k < on.size(); ++k) {
-      const int n = k + 1 == on.size() ? left : std::min(left, free_on(on[k]));
-      if (n == 0)
-        throw HostError(fmt::format("{}: levels={}: the level's {} rank(s) already fill the hosts named before this "
-                                    "one; name it on fewer hosts",
-                                    at(hosts_[on[k]]), name, l.ranks));
-      place(name, on[k], n);
-      left -= n;
-    }
-  }
-  const auto check_fit = [&] {
-    for (size_t h = 0; h < hosts_.size(); ++h)
-      if (used[h] > hosts_[h].slots)
-        throw HostError(fmt::format("{}: the processes placed there need {} slots, it has slots={}", at(hosts_[h]),
-                                    used[h], hosts_[h].slots));
-  };
-  check_fit();  // the explicit placements; the rest go only where they fit
-  // The others: the first host with room for the whole level, else (a level larger than any host's free slots)
-  // the hosts with free slots in order, each filled, as Open MPI maps ranks by slot.
-  for (const auto& l : cs.levels) {
-    if (where_.count(l.name)) continue;
-    size_t h = 0;
-    while (h < hosts_.size() && free_on(h) < l.ranks) ++h;
-    if (h < hosts_.size()) {
-      place(l.name, h, l.ranks);
-      continue;
-    }
-    int total = 0;
-    for (size_t k = 0; k < hosts_.size(); ++k) total += free_on(k);
-    if (total < l.ranks)
-      throw HostError(fmt::format("{}: no host has {} free slot(s) for level '{}' ({} rank(s)), and all hosts "
-                                  "together have {}; add slots or hosts",
-                                  hf.path, l.ranks, l.name, l.ranks, total));
-    int left = l.ranks;
-    for (size_t k = 0; k < hosts_.size() && left > 0; ++k) {
-      const int n = std::min(left, free_on(k));
-      if (n == 0) continue;
-      place(l.name, k, n);
-      left -= n;
-    }
-  }
+  Placer placer(hf, hosts_, where_);
+  placer.coupler();
+  placer.named_levels(cs);
+  placer.check_fit();  // the explicit placements; the rest go only where they fit
+  placer.other_levels(cs);
   Host& ch = hosts_[where_.at("coupler").front().first];
   if (ch.address.empty()) ch.address = resolve_ipv4(ch.name);
   if (ch.address.empty())
-    throw HostError(at(ch) + ": the coupler runs there but the name does not resolve; give address=IP");
+    throw HostError(placer.at(ch) + ": the coupler runs there but the name does not resolve; give address=IP");
   const size_t coupler_host = where_.at("coupler").front().first;
   for (const auto& [who, on] : where_)
     for (const auto& [h, n] : on)
       if (h != coupler_host && bus::curve::is_local_endpoint("tcp://" + ch.address + ":0"))
         throw HostError(fmt::format("{}: the coupler's address {} is loopback, which level '{}' on host '{}' cannot "
-                                    "reach; give address=IP", at(ch), ch.address, who, hosts_[h].name));
+                                    "reach; give address=IP", placer.at(ch), ch.address, who, hosts_[h].name));
 }
 
 void Placement::check(const config::CaseSpec& cs) const {

@@ -52,28 +52,14 @@ std::vector<ParticleKind> merge_kinds(const std::vector<ParticleKind>& kinds) {
   return out;
 }
 
-StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelSpec& lvl, const MaterialTable& mt,
-                                const std::vector<ParticleKind>& kinds, const std::vector<int>& wall_materials,
-                                double gravity_height, const InitialOverlap& overlaps) {
-  StabilityReport r;
-  const auto& st = cs.stability;
-  const double dt = lvl.dt;
-  const std::string where = lvl.loc.str() + ": levels[" + lvl.name + "].dt";
-  if (kinds.empty()) {
-    r.lines.push_back("stability: no particles will be inserted; nothing to check");
-    return r;
-  }
+namespace {
 
-  // Rayleigh time of the smallest particle of every material.
-  r.rayleigh_time = std::numeric_limits<double>::infinity();
-  for (const auto& k : kinds) {
-    const double tr = rayleigh_time(k.r_min, mt.material(k.material));
-    if (tr < r.rayleigh_time) { r.rayleigh_time = tr; r.rayleigh_radius = k.r_min; }
-  }
-
-  // Impact speed: given, or the fastest insertion speed plus a free fall over the domain.
-  if (st.max_impact_speed >= 0.0) {
-    r.impact_speed = st.max_impact_speed;
+// Impact speed: given, or the fastest insertion speed plus a free fall over the domain; raised to what the
+// initial overlaps can throw a particle at.
+void find_impact_speed(StabilityReport& r, const config::CaseSpec& cs, const std::vector<ParticleKind>& kinds,
+                       double gravity_height, const InitialOverlap& overlaps) {
+  if (cs.stability.max_impact_speed >= 0.0) {
+    r.impact_speed = cs.stability.max_impact_speed;
   } else {
     const double g = std::sqrt(norm2(cs.gravity));
     for (const auto& k : kinds)
@@ -90,9 +76,11 @@ StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelS
                                   "{}); the stored energy can throw a particle at {:.3g} m/s{}",
                                   100.0 * overlaps.ratio, overlaps.a, overlaps.b, overlaps.speed,
                                   r.impact_speed_from_overlaps ? " (used as the impact speed)" : ""));
-  const double v = std::max(r.impact_speed, 1e-6);
+}
 
-  // Hertz contact time and overlap of the smallest partners: particle pairs and particle-wall.
+// Hertz contact time and overlap of the smallest partners at speed v: particle pairs and particle-wall.
+void find_contact_limits(StabilityReport& r, const MaterialTable& mt, const std::vector<ParticleKind>& kinds,
+                         const std::vector<int>& wall_materials, double v) {
   r.contact_time = std::numeric_limits<double>::infinity();
   auto consider = [&](double m_eff, double r_eff, double e_star, double r_small) {
     r.contact_time = std::min(r.contact_time, hertz_contact_time(m_eff, r_eff, e_star, v));
@@ -115,18 +103,11 @@ StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelS
       if (c.defined) consider(ma, a.r_min, c.e_star, a.r_min);
     }
   }
-  r.steps_per_contact = r.contact_time / dt;
+}
 
-  r.lines.push_back(fmt::format("stability: Rayleigh time {:.4g} s (radius {:.4g} m); dt = {:.4g} s is {:.1f} % of it "
-                                "(limit {:.0f} %)",
-                                r.rayleigh_time, r.rayleigh_radius, dt, 100.0 * dt / r.rayleigh_time,
-                                100.0 * st.rayleigh_fraction));
-  r.lines.push_back(fmt::format("stability: Hertz contact time {:.4g} s at impact speed {:.3g} m/s{} = {:.1f} steps "
-                                "(minimum {:.0f}); largest overlap {:.1f} % of the radius (limit {:.0f} %)",
-                                r.contact_time, r.impact_speed, r.impact_speed_estimated ? " (estimated)" : "",
-                                r.steps_per_contact, st.min_steps_per_contact, 100.0 * r.overlap_ratio,
-                                100.0 * st.max_overlap_fraction));
-
+// Refuses a dt above the Rayleigh or Hertz limits (unless overridden with a reason) and impacts that would
+// overlap more than allowed; `where` is the level's dt in messages.
+void enforce_limits(StabilityReport& r, const config::StabilitySpec& st, double dt, const std::string& where) {
   std::vector<std::string> problems;
   if (dt > st.rayleigh_fraction * r.rayleigh_time)
     problems.push_back(fmt::format("dt = {:.4g} s is above {:.0f} % of the Rayleigh time {:.4g} s of the smallest "
@@ -159,6 +140,40 @@ StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelS
         : r.impact_speed_estimated ? " (estimated from insertion speed and free fall)"
                                    : "",
         100.0 * r.overlap_ratio, 100.0 * st.max_overlap_fraction));
+}
+
+}  // namespace
+
+StabilityReport check_stability(const config::CaseSpec& cs, const config::LevelSpec& lvl, const MaterialTable& mt,
+                                const std::vector<ParticleKind>& kinds, const std::vector<int>& wall_materials,
+                                double gravity_height, const InitialOverlap& overlaps) {
+  StabilityReport r;
+  const auto& st = cs.stability;
+  const double dt = lvl.dt;
+  if (kinds.empty()) {
+    r.lines.push_back("stability: no particles will be inserted; nothing to check");
+    return r;
+  }
+  // Rayleigh time of the smallest particle of every material.
+  r.rayleigh_time = std::numeric_limits<double>::infinity();
+  for (const auto& k : kinds) {
+    const double tr = rayleigh_time(k.r_min, mt.material(k.material));
+    if (tr < r.rayleigh_time) { r.rayleigh_time = tr; r.rayleigh_radius = k.r_min; }
+  }
+  find_impact_speed(r, cs, kinds, gravity_height, overlaps);
+  find_contact_limits(r, mt, kinds, wall_materials, std::max(r.impact_speed, 1e-6));
+  r.steps_per_contact = r.contact_time / dt;
+
+  r.lines.push_back(fmt::format("stability: Rayleigh time {:.4g} s (radius {:.4g} m); dt = {:.4g} s is {:.1f} % of it "
+                                "(limit {:.0f} %)",
+                                r.rayleigh_time, r.rayleigh_radius, dt, 100.0 * dt / r.rayleigh_time,
+                                100.0 * st.rayleigh_fraction));
+  r.lines.push_back(fmt::format("stability: Hertz contact time {:.4g} s at impact speed {:.3g} m/s{} = {:.1f} steps "
+                                "(minimum {:.0f}); largest overlap {:.1f} % of the radius (limit {:.0f} %)",
+                                r.contact_time, r.impact_speed, r.impact_speed_estimated ? " (estimated)" : "",
+                                r.steps_per_contact, st.min_steps_per_contact, 100.0 * r.overlap_ratio,
+                                100.0 * st.max_overlap_fraction));
+  enforce_limits(r, st, dt, lvl.loc.str() + ": levels[" + lvl.name + "].dt");
   return r;
 }
 
