@@ -49,8 +49,15 @@ TriangleMesh::TriangleMesh(const std::vector<RawTriangle>& tris, const std::stri
       bmax_ = vmax(bmax_, *v);
     }
   }
+  weld_and_measure(tris, weld_tolerance);
+  build_topology();
+  build_grid();
+}
 
-  // ---- weld vertices on a hash grid of cells >= the weld distance ----
+// Vertices welded on a hash grid of cells >= the weld distance; each triangle's normal, edge lengths,
+// heights and classification tolerances. A degenerate triangle (after welding) is refused.
+void TriangleMesh::weld_and_measure(const std::vector<RawTriangle>& tris, double weld_tolerance) {
+  const std::string& name = name_;
   const double diag = norm(bmax_ - bmin_);
   const double tol = std::max(weld_tolerance, 0.0) * diag;
   const double cell = std::max(tol, diag > 0 ? diag * 1e-12 : 1.0);
@@ -96,8 +103,10 @@ TriangleMesh::TriangleMesh(const std::vector<RawTriangle>& tris, const std::stri
       t.tole[k] = kClassTol * t.len[k];
     }
   }
+}
 
-  // ---- topology: edge -> triangle counts, vertex valence and tolerance ----
+// Edge -> triangle counts, vertex valence and tolerance.
+void TriangleMesh::build_topology() {
   std::unordered_map<uint64_t, uint32_t> edges;
   edges.reserve(tri_.size() * 2);
   valence_.assign(vert_.size(), 0);
@@ -116,7 +125,6 @@ TriangleMesh::TriangleMesh(const std::vector<RawTriangle>& tris, const std::stri
       t.eadj[k] = edges[edge_key(t.v[k], t.v[(k + 1) % 3])];
       t.tolv[k] = vtol[t.v[k]];
     }
-  build_grid();
 }
 
 void TriangleMesh::build_grid() {

@@ -96,6 +96,9 @@ class TriangleMesh {
   // Closest point of t to p, its Voronoi region and barycentric coordinates.
   static Vec3 closest(const Tri& t, const Vec3& p, Region& region, double bary[3]);
   Hit classify(int32_t tri, const Vec3& p) const;
+  // The constructor's steps: welded vertices and measured triangles, then the edge and vertex topology.
+  void weld_and_measure(const std::vector<RawTriangle>& tris, double weld_tolerance);
+  void build_topology();
   void build_grid();
 
   std::string name_;
