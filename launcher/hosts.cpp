@@ -19,6 +19,7 @@
 #include <fmt/format.h>
 
 #include "bus/curve.hpp"
+#include "config/case_keys.hpp"
 #include "process.hpp"
 
 namespace fs = std::filesystem;
@@ -97,8 +98,11 @@ HostFile read_hostfile(const std::string& path) {
       } else if (key == "levels" && !value.empty()) {
         h.levels = split(value, ',');
       } else {
-        throw err("'" + t + "' is not a host entry; allowed: NAME slots=N [address=IP] [coupler] [levels=A,B], "
-                  "rsh_agent PATH, mca KEY VALUE");
+        const auto& known = config::keys::kHostEntry;
+        const bool is_key = std::find(known.begin(), known.end(), key) != known.end();
+        throw err("'" + t + "' is not a host entry" + (is_key ? "" : ": " + config::unknown_key(key, known)) +
+                  "; a host line is NAME slots=N [address=IP] [coupler] [levels=A,B]; other lines: rsh_agent PATH, "
+                  "mca KEY VALUE");
       }
     }
     if (!slots) throw err("host '" + h.name + "' needs slots=N (how many processes it runs)");

@@ -37,7 +37,7 @@ struct Reader {
     for (const auto& [k, v] : t)
       if (std::find(allowed.begin(), allowed.end(), k.str()) == allowed.end())
         fail(line_of(v), path.empty() ? std::string(k.str()) : path + "." + std::string(k.str()),
-             "unknown key; allowed keys: " + join(allowed));
+             config::unknown_key(k.str(), allowed));
   }
   std::optional<std::string> str(const toml::table& t, const std::string& path, const char* k) const {
     const toml::node* n = t.get(k);

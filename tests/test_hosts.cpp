@@ -64,7 +64,10 @@ TEST(Hosts, HostfileMistakesNameFileLineAndWhatIsAllowed) {
   const std::string hf = fs::path(hostfile("")).filename().string();
   expect_refused("# hosts\nh1 slots=x\n", hf + ":2: host 'h1': slots=x is not a whole number >= 1");
   expect_refused("h1 slots=2\nh2\n", hf + ":2: host 'h2' needs slots=N");
-  expect_refused("h1 slots=2 cpus=4\n", hf + ":1: 'cpus=4' is not a host entry; allowed: NAME slots=N");
+  expect_refused("h1 slots=2 cpus=4\n", hf + ":1: 'cpus=4' is not a host entry: unknown key; allowed keys: slots, "
+                                       "address, coupler, levels; a host line is NAME slots=N");
+  expect_refused("h1 slot=2\n", hf + ":1: 'slot=2' is not a host entry: unknown key (did you mean 'slots'?)");
+  expect_refused("h1 slots=\n", hf + ":1: 'slots=' is not a host entry; a host line is NAME slots=N");
   expect_refused("h1 slots=2\nh1 slots=1\n", hf + ":2: host 'h1' is listed twice (first at line 1)");
   expect_refused("h1 slots=2 address=10.0.0.300\n", hf + ":1: address=10.0.0.300 is not an IPv4 address");
   expect_refused("mca oob_tcp_if_include\nh1 slots=2\n", hf + ":1: mca takes a key and a value");

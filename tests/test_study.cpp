@@ -412,7 +412,9 @@ TEST_F(Study, RefusesBadStudyFilesNamingFileLineAndKey) {
   const Bad bad[] = {
       {sweep + "key = \"coupling.intervall\"\nvalues = [1e-4]\n", "bad.toml:7: sweep[0].key"},
       {sweep + "key = \"levels.nosuch.alpha\"\nvalues = [2.0]\n", "'nosuch' selects no entry of levels"},
-      {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\nrefrence = \"x\"\n", "bad.toml:4: variants[0].refrence: unknown key"},
+      {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\nrefrence = \"x\"\n", "bad.toml:4: variants[0].refrence: unknown key; allowed keys: name, case, run, label, replicas"},
+      {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\nlable = \"x\"\n",
+       "bad.toml:4: variants[0].lable: unknown key (did you mean 'label'?)"},
       {"[[variants]]\nname = \"r\"\ncase = \"nothere.toml\"\n", "bad.toml:3: variants[0].case: file not found"},
       {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\nreplicas = 0\n",
        "bad.toml:4: variants[0].replicas: 0 is out of range; allowed 1..20"},

@@ -4,7 +4,16 @@
 // fails when cases/README.md documents a key not listed here or leaves out one that is.
 // Types, defaults and bounds are still written where each key is read (case_parser*.cpp).
 #include <string>
+#include <string_view>
 #include <vector>
+
+namespace mlcg::config {
+
+// The message for a key not in `allowed`, the same in every file MLCG reads (case, study file, hostfile):
+// "unknown key (did you mean 'dt'?); allowed keys[ for KIND]: name, alpha, dt, ...".
+std::string unknown_key(std::string_view key, const std::vector<std::string>& allowed, std::string_view kind = {});
+
+}  // namespace mlcg::config
 
 namespace mlcg::config::keys {
 
@@ -64,5 +73,8 @@ inline const List kSwap{"level", "at", "binary"};
 inline const List kStudy{"title", "folder", "reference", "probe", "variants", "sweep"};
 inline const List kStudyVariant{"name", "case", "run", "label", "replicas"};
 inline const List kStudySweep{"name", "base", "key", "values", "label"};
+
+// A hostfile line's KEY=VALUE entries (and `coupler`), launcher/hosts.cpp.
+inline const List kHostEntry{"slots", "address", "coupler", "levels"};
 
 }  // namespace mlcg::config::keys

@@ -197,11 +197,9 @@ void Table::allow(const std::vector<std::string>& allowed, std::string_view kind
     if (!first || k.source().begin < first->source().begin) first = &k;
   }
   if (!first) return;
-  const std::string where = kind.empty() ? std::string() : " for " + std::string(kind);
   const auto& src = first->source();
   detail::fail(SourceLoc{src.path && !src.path->empty() ? *src.path : doc_->file, static_cast<int>(src.begin.line)},
-               key(first->str()),
-               "unknown key" + did_you_mean(first->str(), allowed) + "; allowed keys" + where + ": " + join(allowed));
+               key(first->str()), unknown_key(first->str(), allowed, kind));
 }
 
 std::optional<double> Table::number(std::string_view k, bool allow_inf) const {
@@ -336,3 +334,12 @@ void check_reference(const Table& t, std::string_view k, const std::string& name
 }
 
 }  // namespace mlcg::config::detail
+
+namespace mlcg::config {
+
+std::string unknown_key(std::string_view key, const std::vector<std::string>& allowed, std::string_view kind) {
+  const std::string where = kind.empty() ? std::string() : " for " + std::string(kind);
+  return "unknown key" + detail::did_you_mean(key, allowed) + "; allowed keys" + where + ": " + detail::join(allowed);
+}
+
+}  // namespace mlcg::config
