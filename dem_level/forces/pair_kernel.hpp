@@ -23,24 +23,32 @@
 
 namespace mlcg {
 
+// Three arrays, one per axis.
+struct XyzArrays {
+  std::vector<double> x, y, z;
+  void resize(size_t n) {
+    for (auto* v : {&x, &y, &z}) v->resize(n);
+  }
+};
+
 // The gathered contacts of one block (per thread, reused across steps).
 struct ContactBlock {
   std::vector<int32_t> i, j, k, cix;
-  std::vector<double> dx, dy, dz, ri, rj, mi, mj;
-  std::vector<double> dvx, dvy, dvz;  // v_i - v_j
-  std::vector<double> wsx, wsy, wsz;  // r_i w_i + r_j w_j
-  std::vector<double> wrx, wry, wrz;  // w_i - w_j (rolling only)
-  std::vector<double> hx, hy, hz;     // tangential overlap, in and out
-  std::vector<double> fx, fy, fz;     // force on i
-  std::vector<double> tx, ty, tz;     // n x f_t (torques are -r (n x f_t))
-  std::vector<double> mx, my, mz;     // rolling torque on i
+  std::vector<double> ri, rj, mi, mj;
+  XyzArrays d;       // x_i - x_j
+  XyzArrays dv;      // v_i - v_j
+  XyzArrays ws;      // r_i w_i + r_j w_j
+  XyzArrays wr;      // w_i - w_j (rolling only)
+  XyzArrays h;       // tangential overlap, in and out
+  XyzArrays f;       // force on i
+  XyzArrays t;       // n x f_t (torques are -r (n x f_t))
+  XyzArrays m;       // rolling torque on i
   std::vector<double> delta;
   void reserve(size_t n) {
     if (i.size() >= n) return;
     for (auto* v : {&i, &j, &k, &cix}) v->resize(n);
-    for (auto* v : {&dx, &dy, &dz, &ri, &rj, &mi, &mj, &dvx, &dvy, &dvz, &wsx, &wsy, &wsz, &wrx, &wry, &wrz, &hx,
-                    &hy, &hz, &fx, &fy, &fz, &tx, &ty, &tz, &mx, &my, &mz, &delta})
-      v->resize(n);
+    for (auto* v : {&ri, &rj, &mi, &mj, &delta}) v->resize(n);
+    for (auto* a : {&d, &dv, &ws, &wr, &h, &f, &t, &m}) a->resize(n);
   }
 };
 
@@ -102,12 +110,12 @@ void contact_law_loop(int32_t n, const PairCoeffs* coeffs, const int32_t* __rest
 
 template <class Model, bool Uniform>
 void block_contact_forces(ContactBlock& b, int32_t n, const PairCoeffs* coeffs, double dt) {
-  contact_law_loop<Model, Uniform>(n, coeffs, b.cix.data(), dt, b.dx.data(), b.dy.data(), b.dz.data(), b.ri.data(),
-                                   b.rj.data(), b.mi.data(), b.mj.data(), b.dvx.data(), b.dvy.data(), b.dvz.data(),
-                                   b.wsx.data(), b.wsy.data(), b.wsz.data(), b.wrx.data(), b.wry.data(),
-                                   b.wrz.data(), b.hx.data(), b.hy.data(), b.hz.data(), b.fx.data(), b.fy.data(),
-                                   b.fz.data(), b.tx.data(), b.ty.data(), b.tz.data(), b.mx.data(), b.my.data(),
-                                   b.mz.data(), b.delta.data());
+  contact_law_loop<Model, Uniform>(n, coeffs, b.cix.data(), dt, b.d.x.data(), b.d.y.data(), b.d.z.data(), b.ri.data(),
+                                   b.rj.data(), b.mi.data(), b.mj.data(), b.dv.x.data(), b.dv.y.data(), b.dv.z.data(),
+                                   b.ws.x.data(), b.ws.y.data(), b.ws.z.data(), b.wr.x.data(), b.wr.y.data(),
+                                   b.wr.z.data(), b.h.x.data(), b.h.y.data(), b.h.z.data(), b.f.x.data(), b.f.y.data(),
+                                   b.f.z.data(), b.t.x.data(), b.t.y.data(), b.t.z.data(), b.m.x.data(), b.m.y.data(),
+                                   b.m.z.data(), b.delta.data());
 }
 
 // stress6: 6 values per particle (only read when Stress), branch r_ij/2 per Eq. 8.
@@ -164,32 +172,32 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
       const Vec3 d = x[i] - x[j];
       const double ri = rad[i], rj = rad[j];
       if (nmat > 1) b.cix[c] = mat[i] * nmat + mat[j];  // one material: the law never reads it
-      b.dx[c] = d.x;
-      b.dy[c] = d.y;
-      b.dz[c] = d.z;
+      b.d.x[c] = d.x;
+      b.d.y[c] = d.y;
+      b.d.z[c] = d.z;
       b.ri[c] = ri;
       b.rj[c] = rj;
       b.mi[c] = mass[i];
       b.mj[c] = mass[j];
       const Vec3 dv = v[i] - v[j];
       const Vec3 ws = ri * w[i] + rj * w[j];
-      b.dvx[c] = dv.x;
-      b.dvy[c] = dv.y;
-      b.dvz[c] = dv.z;
-      b.wsx[c] = ws.x;
-      b.wsy[c] = ws.y;
-      b.wsz[c] = ws.z;
+      b.dv.x[c] = dv.x;
+      b.dv.y[c] = dv.y;
+      b.dv.z[c] = dv.z;
+      b.ws.x[c] = ws.x;
+      b.ws.y[c] = ws.y;
+      b.ws.z[c] = ws.z;
       if constexpr (Model::has_rolling) {
         const Vec3 wr = w[i] - w[j];
-        b.wrx[c] = wr.x;
-        b.wry[c] = wr.y;
-        b.wrz[c] = wr.z;
+        b.wr.x[c] = wr.x;
+        b.wr.y[c] = wr.y;
+        b.wr.z[c] = wr.z;
       }
       if constexpr (Model::has_history) {
         const Vec3 h = hist[b.k[c]];
-        b.hx[c] = h.x;
-        b.hy[c] = h.y;
-        b.hz[c] = h.z;
+        b.h.x[c] = h.x;
+        b.h.y[c] = h.y;
+        b.h.z[c] = h.z;
       }
     }
     // The block's history is now in the buffers: clear it in the list, the
@@ -204,25 +212,25 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
       const auto c = static_cast<size_t>(q);
       const auto i = static_cast<size_t>(b.i[c]);
       const auto j = static_cast<size_t>(b.j[c]);
-      const Vec3 force{b.fx[c], b.fy[c], b.fz[c]};
-      const Vec3 tor{b.tx[c], b.ty[c], b.tz[c]};
+      const Vec3 force{b.f.x[c], b.f.y[c], b.f.z[c]};
+      const Vec3 tor{b.t.x[c], b.t.y[c], b.t.z[c]};
       f[i] += force;
       f[j] -= force;
       t[i] -= b.ri[c] * tor;
       t[j] -= b.rj[c] * tor;
       if constexpr (Model::has_rolling) {
-        const Vec3 roll{b.mx[c], b.my[c], b.mz[c]};
+        const Vec3 roll{b.m.x[c], b.m.y[c], b.m.z[c]};
         t[i] += roll;
         t[j] -= roll;
       }
-      if constexpr (Model::has_history) hist[b.k[c]] = {b.hx[c], b.hy[c], b.hz[c]};
+      if constexpr (Model::has_history) hist[b.k[c]] = {b.h.x[c], b.h.y[c], b.h.z[c]};
       const double rmin = std::min(b.ri[c], b.rj[c]);
       if (b.delta[c] > worst * rmin) {  // divide only for a new largest overlap
         worst = b.delta[c] / rmin;
         worst_i = static_cast<int32_t>(i);
       }
       if constexpr (Stress) {
-        const Vec3 half{0.5 * b.dx[c], 0.5 * b.dy[c], 0.5 * b.dz[c]};
+        const Vec3 half{0.5 * b.d.x[c], 0.5 * b.d.y[c], 0.5 * b.d.z[c]};
         add_dyad(stress6 + 6 * i, half, force);
         add_dyad(stress6 + 6 * j, half, force);  // (-d/2) x (-F)
       }
