@@ -311,6 +311,27 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
   sync_output();
 }
 
+namespace {
+
+// energy.csv in short for summary.json: the largest unexplained gain, and the scale it is judged against.
+nlohmann::json energy_summary(const EnergyTotals& e) {
+  return {{"samples", e.samples},
+          {"start_J", e.start},
+          {"controller_work_J", e.controller_work},
+          {"inserted_J", e.inserted},
+          {"removed_J", e.removed},
+          {"max_gain_J", e.max_gain},
+          {"max_gain_time", e.max_gain_time},
+          {"max_rise_J", e.max_rise},
+          {"max_rise_time", e.max_rise_time},
+          {"end_gain_J", e.end_gain},
+          {"in_motion_J", e.in_motion},
+          {"max_gain_of_in_motion", e.in_motion > 0.0 ? e.max_gain / e.in_motion : 0.0},
+          {"max_rise_of_in_motion", e.in_motion > 0.0 ? e.max_rise / e.in_motion : 0.0}};
+}
+
+}  // namespace
+
 void Level::write_summary_file(const std::string& status, const std::string& reason, const MassBalance& b,
                                const double* sums, const CouplingReport& cr) const {
   using nlohmann::json;
@@ -357,23 +378,7 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
                       {"largest_insert_overlap_of_diameter", cr.worst_insert_overlap},
                       {"largest_insert_wall_overlap_of_diameter", cr.worst_insert_wall_overlap},
                       {"inserted_outside_walls", cr.inserted_outside_walls}};
-  if (account_) {
-    // energy.csv in short: the largest unexplained gain, and the scale it is judged against.
-    const EnergyTotals& e = account_->totals();
-    lv["energy"] = {{"samples", e.samples},
-                    {"start_J", e.start},
-                    {"controller_work_J", e.controller_work},
-                    {"inserted_J", e.inserted},
-                    {"removed_J", e.removed},
-                    {"max_gain_J", e.max_gain},
-                    {"max_gain_time", e.max_gain_time},
-                    {"max_rise_J", e.max_rise},
-                    {"max_rise_time", e.max_rise_time},
-                    {"end_gain_J", e.end_gain},
-                    {"in_motion_J", e.in_motion},
-                    {"max_gain_of_in_motion", e.in_motion > 0.0 ? e.max_gain / e.in_motion : 0.0},
-                    {"max_rise_of_in_motion", e.in_motion > 0.0 ? e.max_rise / e.in_motion : 0.0}};
-  }
+  if (account_) lv["energy"] = energy_summary(account_->totals());
   j["levels"] = json::array({lv});
   j["probes"] = probe_entries(scene_.probes);
   j["mass_balance"] = {{"requested", b.requested},       {"inserted", b.inserted},
