@@ -262,6 +262,18 @@ CaseSpec with_amount(const Folder& f, const std::string& amount, double alpha) {
   return load_case((f.dir / "v.toml").string());
 }
 
+// A sweep of alpha over a scene written with count_alpha1 pours the same mass at every alpha, to within
+// half a particle of that alpha (the rounding to whole particles): |count x alpha^3 - count_alpha1| <= alpha^3 / 2.
+TEST(Variants, CountAtAlphaOneKeepsTheMassAtEveryAlpha) {
+  Folder f("sweep");
+  for (const double alpha : {1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0}) {
+    const CaseSpec c = with_amount(f, "count_alpha1 = 2500", alpha);
+    const double a3 = alpha * alpha * alpha;
+    EXPECT_LE(std::fabs(static_cast<double>(c.insertions.at(0).count) * a3 - 2500.0), 0.5 * a3 + 1e-9) << alpha;
+    EXPECT_NEAR(c.insertions.at(0).rate * a3, 20000.0, 1e-9 * 20000.0) << alpha;
+  }
+}
+
 TEST(Variants, CountAtAlphaOneIsDividedByAlphaCubedAndRounded) {
   Folder f("count");
   EXPECT_EQ(with_amount(f, "count_alpha1 = 2500", 2.0).insertions.at(0).count, 313);  // 312.5 rounds up
