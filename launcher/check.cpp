@@ -273,6 +273,8 @@ int check_case(const CheckOptions& o) {
     const config::CaseSpec& cs = p.cs;
     std::printf("mlcg check: case %s (%s): %zu level(s)%s; no run is started, no run folder written\n", o.case_file.c_str(),
                 cs.title.c_str(), cs.levels.size(), cs.coupling ? ", coupled" : ", no coupler needed");
+    for (size_t i = 0; i < cs.bases.size(); ++i)  // base = ..., nearest first
+      std::printf("  %s %s\n", i == 0 ? "a variant of" : "  itself a variant of", cs.bases[i].c_str());
     const auto regions = print_regions(cs, p.regions);
     double fill_alpha = 1.0;
     for (const auto& l : cs.levels) fill_alpha = std::max(fill_alpha, l.alpha);

@@ -55,6 +55,7 @@ CaseSpec scene_of(CaseSpec c, bool files_relative = true) {
                               : fs::absolute(w.file).lexically_normal().string();
   c.path.clear();
   c.dir.clear();
+  c.bases.clear();
   auto clear = [](auto& v) {
     for (auto& x : v) x.loc = {};
   };
@@ -248,6 +249,10 @@ TEST(Variants, AChainOfBasesLaysEachOverTheOneBefore) {
   const CaseSpec b = load_case((f.dir / "b.toml").string());
   EXPECT_EQ(b.seed, 5u);
   EXPECT_DOUBLE_EQ(b.time.end, 0.07);
+  // The chain is kept, nearest base first (`mlcg check` prints it).
+  EXPECT_EQ(b.bases, (std::vector<std::string>{fs::weakly_canonical(f.dir / "a.toml").string(),
+                                               fs::weakly_canonical(f.dir / "scene.toml").string()}));
+  EXPECT_TRUE(load_case((f.dir / "scene.toml").string()).bases.empty());
 }
 
 // The insertion of quickstart/case.toml with its amount replaced, as a one-level case at `alpha`.

@@ -317,7 +317,8 @@ void resolve_rayleigh_dt(const Table& root, CaseSpec& spec) {
 
 CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_messages) {
   const Doc doc{path_for_messages, folder_of(path_for_messages)};
-  const toml::table tbl = read_case_tree(toml_text, doc).root;  // a variant laid over its base
+  CaseTree tree = read_case_tree(toml_text, doc);  // a variant laid over its base
+  const toml::table& tbl = tree.root;
   const Table root(doc, tbl, "");
   root.allow(keys::kTop, "the top level");
   for (const char* k : {"materials", "interactions", "levels"})
@@ -328,6 +329,7 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   CaseSpec spec;
   spec.path = path_for_messages;
   spec.dir = doc.dir;
+  spec.bases = std::move(tree.bases);
   spec.title = root.string("title").value_or("");
   if (const auto seed = root.integer("seed")) {
     root.check("seed", *seed >= 0, std::to_string(*seed) + " is negative; give an integer >= 0");

@@ -48,6 +48,7 @@ void scan_text(const Doc& doc, std::string_view text);
 struct CaseTree {
   toml::table root;
   bool variant = false;
+  std::vector<std::string> bases;  // the files it varies, nearest first (empty for a plain case)
 };
 CaseTree read_case_tree(std::string_view text, const Doc& doc);
 std::string case_file_text(const std::string& path);  // a case file's bytes, or CaseError naming why not

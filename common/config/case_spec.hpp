@@ -296,6 +296,7 @@ struct LimitsSpec {               // [limits]: what a case may ask of the machin
 struct CaseSpec {
   std::string path;                // the case file as given
   std::string dir;                 // its folder (relative files resolve here)
+  std::vector<std::string> bases;  // base: the files this case varies, nearest first (resolved paths)
   std::string title;               // title
   uint64_t seed = 1;               // seed
   Vec3 gravity{0.0, 0.0, -9.81};   // gravity

@@ -94,7 +94,8 @@ CaseTree read_case_tree(std::string_view text, const Doc& doc) {
   std::vector<std::string> chain;
   std::error_code ec;
   chain.push_back(fs::weakly_canonical(doc.file, ec).string());
-  CaseTree t{read_tree(text, doc, chain), chain.size() > 1};
+  CaseTree t{read_tree(text, doc, chain), chain.size() > 1, {}};
+  t.bases.assign(chain.begin() + 1, chain.end());
   return t;
 }
 
@@ -122,7 +123,7 @@ void absolutize(toml::table& out, const toml::table& in, const std::string& case
 std::string resolved_case_text(const std::string& path) {
   std::string text = detail::case_file_text(path);
   const detail::Doc doc{path, detail::folder_of(path)};
-  const auto [tree, variant] = detail::read_case_tree(text, doc);
+  const auto [tree, variant, bases] = detail::read_case_tree(text, doc);
   if (!variant) return text;
   toml::table out = tree;  // a copy drops the sources; the files are made absolute from the original
   if (const auto* walls = tree["walls"].as_array())
