@@ -6,45 +6,27 @@
 // a run folder keeps loads back to the same case and changes when its base changes.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "config/case_parser.hpp"
+#include "files.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using namespace mlcg::config;
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using mlcg::test::slurp;
+using Folder = mlcg::test::TempDir;  // a fresh temporary folder, removed unless the test failed
 
 void put(const fs::path& p, const std::string& text) {
   fs::create_directories(p.parent_path());
   std::ofstream(p) << text;
 }
-
-// A fresh folder under the test's temporary folder, removed at the end.
-struct Folder {
-  fs::path dir;
-  explicit Folder(const std::string& name)
-      : dir(fs::temp_directory_path() / ("mlcg_variants_" + name + "_" + std::to_string(::getpid()))) {
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~Folder() { fs::remove_all(dir); }
-};
 
 // The case with everything that says where it was read from cleared: what is left is the scene.
 // Mesh files as named from the case's folder (a copy elsewhere names the same mesh), or as absolute paths.
@@ -116,13 +98,13 @@ TEST(Variants, ShippedVariantsAreTheirFormerFullFiles) {
 }
 
 TEST(Variants, ResolvedTextLoadsBackToTheSameScene) {
-  Folder f("resolved");
+  Folder f("variants_resolved");
   int variants = 0;
   for (const std::string& name : kShipped) {
     const std::string text = resolved_case_text(kCases + name);
     if (text == slurp(kCases + name)) continue;  // a plain file is kept byte for byte
     ++variants;
-    const fs::path copy = f.dir / fs::path(name).filename();
+    const fs::path copy = f.path() / fs::path(name).filename();
     put(copy, text);
     EXPECT_EQ(scene_of(load_case(copy.string()), false), scene_of(load_case(kCases + name), false)) << name;
     EXPECT_EQ(text.find("\nbase"), std::string::npos) << name << ": the resolved text still names a base";
@@ -133,43 +115,43 @@ TEST(Variants, ResolvedTextLoadsBackToTheSameScene) {
 }
 
 TEST(Variants, ResolvedTextChangesWhenTheBaseChanges) {
-  Folder f("hash");
-  put(f.dir / "scene.toml", slurp(kCases + "quickstart/case.toml"));
-  put(f.dir / "v.toml", "base = \"scene.toml\"\n[time]\nend = 0.05\n");
-  const std::string before = resolved_case_text((f.dir / "v.toml").string());
-  std::string scene = slurp(f.dir / "scene.toml");
+  Folder f("variants_hash");
+  put(f.path() / "scene.toml", slurp(kCases + "quickstart/case.toml"));
+  put(f.path() / "v.toml", "base = \"scene.toml\"\n[time]\nend = 0.05\n");
+  const std::string before = resolved_case_text((f.path() / "v.toml").string());
+  std::string scene = slurp(f.path() / "scene.toml");
   const size_t at = scene.find("seed = ");
   ASSERT_NE(at, std::string::npos);
   scene.insert(at, "seed = 7\n#");
-  put(f.dir / "scene.toml", scene);
-  const std::string after = resolved_case_text((f.dir / "v.toml").string());
+  put(f.path() / "scene.toml", scene);
+  const std::string after = resolved_case_text((f.path() / "v.toml").string());
   EXPECT_NE(before, after);
-  EXPECT_EQ(load_case((f.dir / "v.toml").string()).seed, 7u);
+  EXPECT_EQ(load_case((f.path() / "v.toml").string()).seed, 7u);
 }
 
 // `mlcg run single.toml` in the case's own folder: a path without a folder is in the current one.
 TEST(Variants, ACaseNamedWithoutAFolderIsInTheCurrentOne) {
-  Folder f("cwd");
-  put(f.dir / "scene.toml", slurp(kCases + "quickstart/case.toml"));
-  put(f.dir / "v.toml", "base = \"scene.toml\"\n[time]\nend = 0.05\n");
+  Folder f("variants_cwd");
+  put(f.path() / "scene.toml", slurp(kCases + "quickstart/case.toml"));
+  put(f.path() / "v.toml", "base = \"scene.toml\"\n[time]\nend = 0.05\n");
   const fs::path before = fs::current_path();
-  fs::current_path(f.dir);
+  fs::current_path(f.path());
   EXPECT_EQ(resolved_case_text("scene.toml"), slurp("scene.toml"));
   EXPECT_NE(resolved_case_text("v.toml").find("end = 0.05"), std::string::npos);
   EXPECT_DOUBLE_EQ(load_case("v.toml").time.end, 0.05);
-  EXPECT_EQ(fs::path(load_case("v.toml").dir), f.dir.lexically_normal());
+  EXPECT_EQ(fs::path(load_case("v.toml").dir), f.path().lexically_normal());
   fs::current_path(before);
 }
 
 TEST(Variants, SectionsMergeKeyByKeyArraysOfTablesReplaceWhole) {
-  Folder f("merge");
-  put(f.dir / "scene.toml", slurp(kCases + "quickstart/case.toml"));
-  put(f.dir / "v.toml",
+  Folder f("variants_merge");
+  put(f.path() / "scene.toml", slurp(kCases + "quickstart/case.toml"));
+  put(f.path() / "v.toml",
       "base = \"scene.toml\"\n"
       "[time]\nend = 0.05\n"
       "[[levels]]\nname = \"coarse\"\nalpha = 2.0\ndt_alpha1 = 1.2e-5\n");
-  const CaseSpec base = load_case((f.dir / "scene.toml").string());
-  const CaseSpec v = load_case((f.dir / "v.toml").string());
+  const CaseSpec base = load_case((f.path() / "scene.toml").string());
+  const CaseSpec v = load_case((f.path() / "v.toml").string());
   EXPECT_DOUBLE_EQ(v.time.end, 0.05);
   EXPECT_EQ(v.time.progress_interval, base.time.progress_interval);
   EXPECT_EQ(v.materials, base.materials);
@@ -177,82 +159,82 @@ TEST(Variants, SectionsMergeKeyByKeyArraysOfTablesReplaceWhole) {
   EXPECT_EQ(v.levels[0].name, "coarse");
   EXPECT_DOUBLE_EQ(v.levels[0].alpha, 2.0);
   EXPECT_EQ(v.walls, base.walls);
-  EXPECT_EQ(v.levels[0].loc.file, (f.dir / "v.toml").string());
+  EXPECT_EQ(v.levels[0].loc.file, (f.path() / "v.toml").string());
   EXPECT_EQ(v.levels[0].loc.line, 4);
-  EXPECT_EQ(v.walls.at(0).loc.file, (f.dir / "scene.toml").lexically_normal().string());
+  EXPECT_EQ(v.walls.at(0).loc.file, (f.path() / "scene.toml").lexically_normal().string());
 }
 
 TEST(Variants, ABadKeyInTheBaseIsNamedAtTheBasesLine) {
-  Folder f("badbase");
+  Folder f("variants_badbase");
   std::string scene = slurp(kCases + "quickstart/case.toml");
   const size_t at = scene.find("[domain]");
   ASSERT_NE(at, std::string::npos);
   scene.insert(at, "[domian]\nmin = 1\n\n");
   const int line = 1 + static_cast<int>(std::count(scene.begin(), scene.begin() + static_cast<long>(at), '\n'));
-  put(f.dir / "scene" / "scene.toml", scene);
-  put(f.dir / "study" / "v.toml", "base = \"../scene/scene.toml\"\n[time]\nend = 0.05\n");
+  put(f.path() / "scene" / "scene.toml", scene);
+  put(f.path() / "study" / "v.toml", "base = \"../scene/scene.toml\"\n[time]\nend = 0.05\n");
   try {
-    load_case((f.dir / "study" / "v.toml").string());
+    load_case((f.path() / "study" / "v.toml").string());
     FAIL() << "the misspelt table in the base was accepted";
   } catch (const CaseError& e) {
-    const std::string expected = (f.dir / "scene" / "scene.toml").string() + ":" + std::to_string(line) + ": domian";
+    const std::string expected = (f.path() / "scene" / "scene.toml").string() + ":" + std::to_string(line) + ": domian";
     EXPECT_EQ(std::string(e.what()).rfind(expected, 0), 0u) << e.what();
   }
 }
 
 TEST(Variants, AMeshFileResolvesAgainstTheFileThatNamesIt) {
-  Folder f("mesh");
+  Folder f("variants_mesh");
   const std::string stl = slurp(std::string(MLCG_TEST_DATA) + "/mesh/cube_ascii.stl");
-  put(f.dir / "scene" / "meshes" / "m.stl", stl);
+  put(f.path() / "scene" / "meshes" / "m.stl", stl);
   std::string scene = slurp(kCases + "quickstart/case.toml");
   scene += "\n[[walls]]\nname = \"mesh\"\ntype = \"mesh\"\nfile = \"meshes/m.stl\"\nmaterial = \"steel\"\nscale = 0.001\n";
-  put(f.dir / "scene" / "scene.toml", scene);
-  put(f.dir / "study" / "v.toml", "base = \"../scene/scene.toml\"\n[time]\nend = 0.05\n");
-  const CaseSpec v = load_case((f.dir / "study" / "v.toml").string());
+  put(f.path() / "scene" / "scene.toml", scene);
+  put(f.path() / "study" / "v.toml", "base = \"../scene/scene.toml\"\n[time]\nend = 0.05\n");
+  const CaseSpec v = load_case((f.path() / "study" / "v.toml").string());
   ASSERT_FALSE(v.walls.empty());
-  EXPECT_EQ(fs::path(v.walls.back().file).lexically_normal(), (f.dir / "scene" / "meshes" / "m.stl").lexically_normal());
+  EXPECT_EQ(fs::path(v.walls.back().file).lexically_normal(), (f.path() / "scene" / "meshes" / "m.stl").lexically_normal());
   // The resolved text names the mesh absolutely, so a run folder's copy still finds it.
-  put(f.dir / "elsewhere" / "case.toml", resolved_case_text((f.dir / "study" / "v.toml").string()));
-  EXPECT_EQ(fs::path(load_case((f.dir / "elsewhere" / "case.toml").string()).walls.back().file).lexically_normal(),
+  put(f.path() / "elsewhere" / "case.toml", resolved_case_text((f.path() / "study" / "v.toml").string()));
+  EXPECT_EQ(fs::path(load_case((f.path() / "elsewhere" / "case.toml").string()).walls.back().file).lexically_normal(),
             fs::path(v.walls.back().file).lexically_normal());
 }
 
 // `variant_text` as v.toml must be refused at `at` (file:1: base: ...) with `phrase`.
 void expect_base_error(const std::string& variant_text, const std::string& phrase, const Folder& f,
                        const std::string& at = "v.toml") {
-  put(f.dir / "v.toml", variant_text);
+  put(f.path() / "v.toml", variant_text);
   try {
-    load_case((f.dir / "v.toml").string());
+    load_case((f.path() / "v.toml").string());
     FAIL() << "accepted: " << variant_text;
   } catch (const CaseError& e) {
     const std::string msg = e.what();
-    EXPECT_EQ(msg.rfind((f.dir / at).string() + ":1: base: ", 0), 0u) << msg;
+    EXPECT_EQ(msg.rfind((f.path() / at).string() + ":1: base: ", 0), 0u) << msg;
     EXPECT_NE(msg.find(phrase), std::string::npos) << msg;
   }
 }
 
 TEST(Variants, BadBasesAreRefusedWithTheReason) {
-  Folder f("bad");
+  Folder f("variants_bad");
   expect_base_error("base = 3\n", "expected a string", f);
   expect_base_error("base = \"\"\n", "empty string", f);
   expect_base_error("base = \"missing.toml\"\n", "is not a file", f);
   expect_base_error("base = \"v.toml\"\n", "a case cannot vary itself", f);
-  put(f.dir / "a.toml", "base = \"v.toml\"\n");
-  expect_base_error("base = \"a.toml\"\n", (f.dir / "v.toml").string() + " is already in this chain", f, "a.toml");
+  put(f.path() / "a.toml", "base = \"v.toml\"\n");
+  expect_base_error("base = \"a.toml\"\n", (f.path() / "v.toml").string() + " is already in this chain", f, "a.toml");
 }
 
 TEST(Variants, AChainOfBasesLaysEachOverTheOneBefore) {
-  Folder f("chain");
-  put(f.dir / "scene.toml", slurp(kCases + "quickstart/case.toml"));
-  put(f.dir / "a.toml", "base = \"scene.toml\"\nseed = 5\n[time]\nend = 0.05\n");
-  put(f.dir / "b.toml", "base = \"a.toml\"\n[time]\nend = 0.07\n");
-  const CaseSpec b = load_case((f.dir / "b.toml").string());
+  Folder f("variants_chain");
+  put(f.path() / "scene.toml", slurp(kCases + "quickstart/case.toml"));
+  put(f.path() / "a.toml", "base = \"scene.toml\"\nseed = 5\n[time]\nend = 0.05\n");
+  put(f.path() / "b.toml", "base = \"a.toml\"\n[time]\nend = 0.07\n");
+  const CaseSpec b = load_case((f.path() / "b.toml").string());
   EXPECT_EQ(b.seed, 5u);
   EXPECT_DOUBLE_EQ(b.time.end, 0.07);
   // The chain is kept, nearest base first (`mlcg check` prints it).
-  EXPECT_EQ(b.bases, (std::vector<std::string>{fs::weakly_canonical(f.dir / "a.toml").string(),
-                                               fs::weakly_canonical(f.dir / "scene.toml").string()}));
-  EXPECT_TRUE(load_case((f.dir / "scene.toml").string()).bases.empty());
+  EXPECT_EQ(b.bases, (std::vector<std::string>{fs::weakly_canonical(f.path() / "a.toml").string(),
+                                               fs::weakly_canonical(f.path() / "scene.toml").string()}));
+  EXPECT_TRUE(load_case((f.path() / "scene.toml").string()).bases.empty());
 }
 
 // The insertion of quickstart/case.toml with its amount replaced, as a one-level case at `alpha`.
@@ -261,16 +243,16 @@ CaseSpec with_amount(const Folder& f, const std::string& amount, double alpha) {
   const size_t at = scene.find("count_alpha1 = ");
   EXPECT_NE(at, std::string::npos);
   scene.replace(at, scene.find('\n', at) - at, amount);
-  put(f.dir / "scene.toml", scene);
-  put(f.dir / "v.toml", "base = \"scene.toml\"\n[[levels]]\nname = \"l\"\nalpha = " + std::to_string(alpha) +
+  put(f.path() / "scene.toml", scene);
+  put(f.path() / "v.toml", "base = \"scene.toml\"\n[[levels]]\nname = \"l\"\nalpha = " + std::to_string(alpha) +
                             "\ndt_alpha1 = 1.2e-5\n");
-  return load_case((f.dir / "v.toml").string());
+  return load_case((f.path() / "v.toml").string());
 }
 
 // A sweep of alpha over a scene written with count_alpha1 pours the same mass at every alpha, to within
 // half a particle of that alpha (the rounding to whole particles): |count x alpha^3 - count_alpha1| <= alpha^3 / 2.
 TEST(Variants, CountAtAlphaOneKeepsTheMassAtEveryAlpha) {
-  Folder f("sweep");
+  Folder f("variants_sweep");
   for (const double alpha : {1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0}) {
     const CaseSpec c = with_amount(f, "count_alpha1 = 2500", alpha);
     const double a3 = alpha * alpha * alpha;
@@ -280,7 +262,7 @@ TEST(Variants, CountAtAlphaOneKeepsTheMassAtEveryAlpha) {
 }
 
 TEST(Variants, CountAtAlphaOneIsDividedByAlphaCubedAndRounded) {
-  Folder f("count");
+  Folder f("variants_count");
   EXPECT_EQ(with_amount(f, "count_alpha1 = 2500", 2.0).insertions.at(0).count, 313);  // 312.5 rounds up
   EXPECT_EQ(with_amount(f, "count_alpha1 = 2500", 1.0).insertions.at(0).count, 2500);
   EXPECT_EQ(with_amount(f, "count_alpha1 = 1000", 2.5).insertions.at(0).count, 64);

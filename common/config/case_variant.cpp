@@ -24,19 +24,6 @@ namespace {
 
 constexpr int kMaxChain = 16;  // a deeper chain is a mistake, not a design
 
-std::string read_file_text(const std::string& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec))
-    throw CaseError(path + ": cannot read the case file (" +
-                    (fs::exists(path, ec) ? std::string("not a regular file") : std::string("no such file")) +
-                    "); give the path of a .toml case file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw CaseError(path + ": cannot read the case file (" + std::strerror(errno) + ")");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 bool section(const toml::node* n) { return n && n->is_table() && !n->as_table()->is_inline(); }
 
 // Lays `over` onto `into`, moving the nodes so they keep their source (file and line).
@@ -82,7 +69,7 @@ toml::table read_tree(std::string_view text, const Doc& doc, std::vector<std::st
     fail(doc, line, "base", fmt::format("a chain of more than {} bases; join some of them into one file", kMaxChain));
   chain.push_back(key);
   const Doc base_doc{path, folder_of(path)};
-  toml::table merged = read_tree(read_file_text(path), base_doc, chain);
+  toml::table merged = read_tree(case_file_text(path), base_doc, chain);
   tree.erase("base");
   merge_over(merged, tree);
   return merged;
@@ -99,7 +86,18 @@ CaseTree read_case_tree(std::string_view text, const Doc& doc) {
   return t;
 }
 
-std::string case_file_text(const std::string& path) { return read_file_text(path); }
+std::string case_file_text(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec))
+    throw CaseError(path + ": cannot read the case file (" +
+                    (fs::exists(path, ec) ? std::string("not a regular file") : std::string("no such file")) +
+                    "); give the path of a .toml case file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw CaseError(path + ": cannot read the case file (" + std::strerror(errno) + ")");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
 
 }  // namespace mlcg::config::detail
 
