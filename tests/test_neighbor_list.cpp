@@ -105,3 +105,24 @@ TEST(NeighborList, HistorySurvivesReorderingAndRemoval) {
     }
   EXPECT_GT(checked, 1000u);
 }
+
+// The pair kernel holds one coefficient set when every particle of the list has the same material;
+// a single ghost of another material must take that away.
+TEST(NeighborList, SingleMaterialSeesGhostsToo) {
+  Particles p = random_particles(50, 4, 0.02);
+  for (auto& m : p.material) m = 2;
+  NeighborList nl;
+  nl.set_skin(1e-3);
+  nl.build(p, false);
+  EXPECT_EQ(nl.single_material(), 2);
+  p.add_ghost({0.01, 0.01, 0.01}, {}, {}, 1e-3, 1e-6, 9999, 2);
+  nl.build(p, false);
+  EXPECT_EQ(nl.single_material(), 2);
+  p.add_ghost({0.011, 0.01, 0.01}, {}, {}, 1e-3, 1e-6, 10000, 0);
+  nl.build(p, false);
+  EXPECT_EQ(nl.single_material(), -1);
+  p.drop_ghosts();
+  p.material[7] = 1;
+  nl.build(p, false);
+  EXPECT_EQ(nl.single_material(), -1);
+}

@@ -118,6 +118,8 @@ void block_contact_forces(ContactBlock& b, int32_t n, const PairCoeffs* coeffs, 
                                    b.m.z.data(), b.delta.data());
 }
 
+inline constexpr size_t kPrefetchAbove = 150000;
+
 // stress6: 6 values per particle (only read when Stress), branch r_ij/2 per Eq. 8.
 template <class Model, bool Stress>
 void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double dt, double* stress6,
@@ -135,8 +137,14 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
   const int32_t* __restrict neigh = nl.neigh.data();
   Vec3* __restrict hist = Model::has_history ? nl.hist.data() : nullptr;
   const int nmat = mt.size();
-  const PairCoeffs* coeffs = mt.pairs().data();
+  // One material among the particles (walls may have others): its coefficients are a loop invariant.
+  const int32_t single = nl.single_material();
+  const PairCoeffs* coeffs = mt.pairs().data() + (single >= 0 ? single * nmat + single : 0);
+  const bool uniform = nmat == 1 || single >= 0;
   ContactBlock& b = scratch_contacts();
+  // Below this many particles (ghosts included) the arrays stay in the caches, where prefetching
+  // costs more than it saves: measured 7 % slower at 30,000, 8 % faster at 270,000 and 13 % at 1,080,000.
+  const bool prefetch = p.size() > kPrefetchAbove;
 
   double worst = st.max_overlap_ratio;
   int32_t worst_i = st.worst_particle;
@@ -155,6 +163,15 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
       const double ri = rad[i];
       for (int32_t k = nl.first[i], end = nl.first[i + 1]; k < end; ++k) {
         const auto j = static_cast<size_t>(neigh[k]);
+        // The gather and the scatter read and write the partner's other arrays in a moment:
+        // start those loads now when they come from memory.
+        if (prefetch) {
+          __builtin_prefetch(&v[j]);
+          __builtin_prefetch(&w[j]);
+          __builtin_prefetch(&mass[j]);
+          __builtin_prefetch(&f[j], 1);
+          __builtin_prefetch(&t[j], 1);
+        }
         const double radsum = ri + rad[j];
         const bool touch = norm2(xi - x[j]) < radsum * radsum;
         const auto c = static_cast<size_t>(nc);
@@ -171,7 +188,7 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
       b.j[c] = static_cast<int32_t>(j);
       const Vec3 d = x[i] - x[j];
       const double ri = rad[i], rj = rad[j];
-      if (nmat > 1) b.cix[c] = mat[i] * nmat + mat[j];  // one material: the law never reads it
+      if (!uniform) b.cix[c] = mat[i] * nmat + mat[j];  // one material: the law never reads it
       b.d.x[c] = d.x;
       b.d.y[c] = d.y;
       b.d.z[c] = d.z;
@@ -204,8 +221,15 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
     // scatter writes it back for the touching pairs, so the others are reset.
     if constexpr (Model::has_history)
       std::fill(hist + nl.first[i0], hist + nl.first[i1], Vec3{});
+    // The next block's history, a stream the law's time hides.
+    if (Model::has_history && prefetch) {
+      const size_t i2 = std::min(n, i1 + kBlock);
+      const char* h0 = reinterpret_cast<const char*>(hist + nl.first[i1]);
+      const char* h1 = reinterpret_cast<const char*>(hist + nl.first[i2]);
+      for (const char* a = h0; a < h1; a += 64) __builtin_prefetch(a, 1);
+    }
     // 2. The contact law, vectorized.
-    if (nmat == 1) block_contact_forces<Model, true>(b, nc, coeffs, dt);
+    if (uniform) block_contact_forces<Model, true>(b, nc, coeffs, dt);
     else block_contact_forces<Model, false>(b, nc, coeffs, dt);
     // 3. Scatter forces, torques and history.
     for (int32_t q = 0; q < nc; ++q) {

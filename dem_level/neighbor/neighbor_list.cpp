@@ -61,7 +61,11 @@ void NeighborList::build(const Particles& p, bool with_history) {
   const size_t n_all = p.size();
   const size_t n_local = p.n_local();
   double rmax = 0.0;
-  for (size_t i = 0; i < n_all; ++i) rmax = std::max(rmax, p.radius[i]);
+  single_material_ = n_all > 0 ? p.material[0] : -1;
+  for (size_t i = 0; i < n_all; ++i) {
+    rmax = std::max(rmax, p.radius[i]);
+    if (p.material[i] != single_material_) single_material_ = -1;
+  }
   bins_.build(p.x, n_all, 2.0 * rmax + skin_);
 
   first.assign(n_local + 1, 0);

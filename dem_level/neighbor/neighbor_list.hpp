@@ -62,6 +62,10 @@ class NeighborList {
   // Fill hist[] for the freshly built list from per-particle storage.
   void load_history(const Particles& p, const ContactHistory& in);
 
+  // The material every particle of the last build has (ghosts included), or -1 when they differ:
+  // the pair kernel then holds one coefficient set for the whole list.
+  int32_t single_material() const { return single_material_; }
+
   size_t extra_bytes() const { return x_build_.capacity() * sizeof(Vec3); }
   size_t pairs() const { return neigh.size(); }
   uint64_t builds() const { return builds_; }
@@ -72,6 +76,7 @@ class NeighborList {
   std::vector<Vec3> x_build_;
   CellBins bins_;
   uint64_t builds_ = 0;
+  int32_t single_material_ = -1;
 };
 
 }  // namespace mlcg
