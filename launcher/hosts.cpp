@@ -83,12 +83,14 @@ HostFile read_hostfile(const std::string& path) {
       if (t == "coupler") {
         h.coupler = true;
       } else if (key == "slots" && !value.empty()) {
+        const auto& spec = config::schema::at(config::schema::kHostEntry, "slots");  // its bounds
         try {
           size_t used = 0;
           h.slots = std::stoi(value, &used);
-          if (used != value.size() || h.slots < 1) throw std::invalid_argument(value);
+          if (used != value.size() || !spec.bounds.contains(h.slots)) throw std::invalid_argument(value);
         } catch (const std::exception&) {
-          throw err("host '" + h.name + "': slots=" + value + " is not a whole number >= 1");
+          throw err("host '" + h.name + "': slots=" + value + " is not a whole number >= " +
+                    fmt::format("{:g}", spec.bounds.lo));
         }
         slots = true;
       } else if (key == "address" && !value.empty()) {

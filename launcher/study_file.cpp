@@ -11,6 +11,7 @@
 #include <toml++/toml.h>
 
 #include "config/case_keys.hpp"
+#include "config/case_schema.hpp"
 #include "config/case_parser.hpp"
 #include "run_case.hpp"
 
@@ -45,9 +46,11 @@ struct Reader {
     if (!n->is_string()) fail(line_of(*n), path + k, "expected a string");
     return n->value<std::string>();
   }
-  std::string required(const toml::table& t, const std::string& path, const char* k, const char* what) const {
-    auto s = str(t, path, k);
-    if (!s || s->empty()) fail(line_of(t), path + k, std::string("required: ") + what);
+  // A required string key: missing or empty -> "required: DOC" (its declared doc).
+  std::string required(const toml::table& t, const std::string& path, const config::schema::KeySpec& k) const {
+    const std::string name(k.name);
+    auto s = str(t, path, name.c_str());
+    if (!s || s->empty()) fail(line_of(t), path + name, "required: " + std::string(k.doc));
     return *s;
   }
 };
@@ -196,9 +199,10 @@ std::string derived_text(const fs::path& base, const std::string& change, const 
 
 void add_sweep(const Reader& r, const toml::table& t, const std::string& path, const fs::path& study_dir,
                const fs::path& folder, std::vector<Variant>& out) {
+  using config::schema::at, config::schema::kStudySweep;
   r.allow(t, path, config::keys::kStudySweep);
-  const std::string base_rel = r.required(t, path + ".", "base", "the case file the sweep starts from");
-  const std::string key = r.required(t, path + ".", "key", "the dotted case key to vary, e.g. \"coupling.interval\"");
+  const std::string base_rel = r.required(t, path + ".", at(kStudySweep, "base"));
+  const std::string key = r.required(t, path + ".", at(kStudySweep, "key"));
   const fs::path base = study_dir / base_rel;
   if (!fs::is_regular_file(base)) r.fail(line_of(*t.get("base")), path + ".base", "file not found: " + base.string());
   const auto parts = split_key(key);
@@ -211,7 +215,7 @@ void add_sweep(const Reader& r, const toml::table& t, const std::string& path, c
   const auto* values = t.get_as<toml::array>("values");
   if (!values || values->empty())
     r.fail(t.get("values") ? line_of(*t.get("values")) : line_of(t), path + ".values",
-           "required: a non-empty array of the values the key takes");
+           "required: " + std::string(at(kStudySweep, "values").doc));
   const toml::table doc = read_base(r, line_of(*t.get("base")), path + ".base", base);
   const int key_line = line_of(*t.get("key"));
   for (size_t i = 0; i < values->size(); ++i) {
@@ -242,19 +246,20 @@ void add_sweep(const Reader& r, const toml::table& t, const std::string& path, c
   }
 }
 
-// `replicas`: absent = 1; a whole number 1..kMaxReplicas, only with a `case` to run.
+// `replicas`: absent = 1; a whole number within its declared bounds, only with a `case` to run.
 int read_replicas(const Reader& r, const toml::table& t, const std::string& path) {
+  const config::schema::KeySpec& spec = config::schema::at(config::schema::kStudyVariant, "replicas");
   const toml::node* n = t.get("replicas");
-  if (!n) return 1;
+  if (!n) return static_cast<int>(config::schema::default_number(spec).value_or(1.0));
   const std::string key = path + ".replicas";
-  const std::string allowed = fmt::format("; allowed 1..{} (runs of the variant, seeds seed, seed + 1, ...)",
-                                          kMaxReplicas);
+  const std::string allowed = fmt::format("; allowed {} ({})", spec.allowed, spec.doc);
   const auto i = n->value_exact<int64_t>();
   if (!i)
     r.fail(line_of(*n), key,
            (n->is_number() ? value_text(*n) + " is not a whole number" : "'" + value_text(*n) + "' is not a number") +
                allowed);
-  if (*i < 1 || *i > kMaxReplicas) r.fail(line_of(*n), key, std::to_string(*i) + " is out of range" + allowed);
+  if (!spec.bounds.contains(static_cast<double>(*i)))
+    r.fail(line_of(*n), key, std::to_string(*i) + " is out of range" + allowed);
   if (!t.get("case") || t.get("run"))
     r.fail(line_of(*n), key, "needs `case` and no `run`: a given run is used as it is, never run again");
   return static_cast<int>(*i);
@@ -293,7 +298,7 @@ void add_variant(const Reader& r, const toml::table& t, const std::string& path,
                  const fs::path& folder, std::vector<Variant>& out) {
   r.allow(t, path, config::keys::kStudyVariant);
   Variant v;
-  v.name = r.required(t, path + ".", "name", "the variant's name (its run folder's name)");
+  v.name = r.required(t, path + ".", config::schema::at(config::schema::kStudyVariant, "name"));
   check_name(r, line_of(t), path + ".name", v.name);
   v.label = r.str(t, path + ".", "label").value_or(v.name);
   v.where = fmt::format("{}:{}", r.file, line_of(t));

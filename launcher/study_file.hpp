@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "config/case_schema_coupling.hpp"
+
 namespace mlcg::launcher {
 
 struct StudyError : std::runtime_error {
@@ -34,7 +36,8 @@ struct Variant {
   int replicas = 1;
 };
 
-inline constexpr int kMaxReplicas = 20;
+// The bound of [[variants]] replicas, as declared (config/case_schema_coupling.hpp).
+inline constexpr int kMaxReplicas = static_cast<int>(config::schema::at(config::schema::kStudyVariant, "replicas").bounds.hi);
 
 struct StudySpec {
   std::string file;                 // the study file ("" = the default variants of the case folder)

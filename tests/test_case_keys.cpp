@@ -1,15 +1,19 @@
 // cases/README.md and the parser agree on the keys (issue 15): every key a table of a case or a study
 // file allows (config/case_keys.hpp, the lists the reader's unknown-key check uses) appears in the key
-// tables of that table's section of the document, and every key those tables list is allowed.
+// tables of that table's section of the document, and every key those tables list is allowed; and each
+// key row's type, default and allowed cells are the text of the key's declaration (config/case_schema*.hpp),
+// from which the reader takes its default, choices and bounds.
 #include <gtest/gtest.h>
 
 #include <map>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "config/case_keys.hpp"
+#include "config/case_schema.hpp"
 #include "config/case_parser.hpp"
 #include "files.hpp"
 
@@ -117,6 +121,132 @@ TEST(CaseKeys, TheDocumentListsExactlyTheKeysTheParserAllows) {
   for (const auto& [section, written] : doc)
     EXPECT_TRUE(allowed().count(section)) << "cases/README.md section '" << section << "' lists keys ("
                                           << listed(written) << ") that no table of the parser is matched with";
+}
+
+// ---- the key tables' type, default and allowed cells ------------------------------------------
+
+// One key table of the document: its section, its place among that section's key tables, and its rows
+// as column name -> cell.
+struct KeyTable {
+  std::string section;
+  int index = 0;
+  std::vector<std::map<std::string, std::string>> rows;
+};
+
+// The cells of a table row, split at the bars that are not escaped (`\|g\|`).
+std::vector<std::string> cells_of(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (size_t i = 1; i < line.size(); ++i) {
+    if (line[i] == '|' && line[i - 1] != '\\') {
+      out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += line[i];
+    }
+  }
+  for (auto& c : out) c = std::regex_replace(c, std::regex(R"(^\s+|\s+$)"), "");
+  return out;
+}
+
+// Every table whose header's first cell is `key`, outside code blocks.
+std::vector<KeyTable> key_tables() {
+  const std::string readme = mlcg::test::slurp(std::string(MLCG_SOURCE_DIR) + "/cases/README.md");
+  static const std::regex heading(R"(^#{2,3} (.*)$)");
+  std::vector<KeyTable> out;
+  std::map<std::string, int> count;
+  std::vector<std::string> header;
+  std::string section, line;
+  bool in_code = false;
+  std::istringstream in(readme);
+  while (std::getline(in, line)) {
+    if (line.rfind("```", 0) == 0) in_code = !in_code;
+    std::smatch m;
+    if (in_code) continue;
+    if (std::regex_match(line, m, heading)) section = m[1];
+    if (line.rfind("|", 0) != 0) {
+      header.clear();
+      continue;
+    }
+    const auto cells = cells_of(line);
+    if (header.empty() && !cells.empty() && cells[0] == "key") {
+      header = cells;
+      out.push_back({section, count[section]++, {}});
+    } else if (!header.empty() && cells[0].rfind("---", 0) != 0) {
+      std::map<std::string, std::string> row;
+      for (size_t c = 0; c < header.size() && c < cells.size(); ++c) row[header[c]] = cells[c];
+      out.back().rows.push_back(row);
+    }
+  }
+  return out;
+}
+
+// The declarations each key table documents: (section, index among its key tables) -> lists.
+std::map<std::pair<std::string, int>, std::vector<schema::Keys>> declarations() {
+  using namespace schema;
+  return {
+      {{"Top level", 0}, {kTop}},
+      {{"`[[materials]]`", 0}, {kMaterial}},
+      {{"`[[interactions]]`", 0}, {kInteraction}},
+      {{"`[contact]`", 0}, {kContact}},
+      {{"`[[levels]]`", 0}, {kLevel}},
+      {{"`[domain]`", 0}, {kDomain}},
+      {{"`[[walls]]`", 0}, {kWall}},
+      {{"`[[walls]]`", 1}, {kPlane}},
+      {{"`[[walls]]`", 2}, {kCylinder, kCone, kDisk}},
+      {{"`[[walls]]`", 3}, {kMesh}},
+      {{"`[[insertion]]`", 0}, {kInsertion}},
+      {{"`[[insertion]]`", 1}, {kBoxRegion, kCylinderRegion}},
+      {{"`[[particles]]`", 0}, {kParticle}},
+      {{"`[initial]`", 0}, {kInitial}},
+      {{"`[orifice]`", 0}, {kOrifice}},
+      {{"`[[events]]`", 0}, {kEvent}},
+      {{"`[[probes]]`", 0}, {kProbe}},
+      {{"`[[grids]]`", 0}, {kGrid}},
+      {{"`[output]`", 0}, {kOutput}},
+      {{"`[stability]`", 0}, {kStability}},
+      {{"`[limits]`", 0}, {kLimits}},
+      {{"`[time]`", 0}, {kTime}},
+      {{"`[time]`", 1}, {kEndAfterEvent}},
+      {{"`[coupling]`", 0}, {kCoupling}},
+      {{"`[launcher]`", 0}, {kLauncher}},
+      {{"`[[swap]]`", 0}, {kSwap}},
+      {{"`[[coupling.regions]]`", 0}, {kCouplingRegion}},
+      {{"Study files (`mlcg study`)", 0}, {kStudy}},
+      {{"Study files (`mlcg study`)", 1}, {kStudyVariant}},
+      {{"Study files (`mlcg study`)", 2}, {kStudySweep}},
+  };
+}
+
+std::string normalised(std::string_view text) {
+  return std::regex_replace(std::string(text), std::regex(R"(\s+)"), " ");
+}
+
+TEST(CaseKeys, TheDocumentsTypeDefaultAndAllowedCellsAreTheDeclarations) {
+  const auto decl = declarations();
+  size_t checked = 0;
+  for (const KeyTable& table : key_tables()) {
+    const std::string where = table.section + " (key table " + std::to_string(table.index) + ")";
+    const auto it = decl.find({table.section, table.index});
+    ASSERT_NE(it, decl.end()) << "cases/README.md: " << where << " is matched with no declaration";
+    for (const auto& row : table.rows)
+      for (const std::string& name : keys_in_cell(row.at("key"))) {
+        std::vector<const schema::KeySpec*> found;
+        for (schema::Keys keys : it->second)
+          if (const auto* k = schema::find(keys, name)) found.push_back(k);
+        EXPECT_FALSE(found.empty()) << where << ": `" << name << "` is documented but not declared";
+        for (const schema::KeySpec* k : found) {
+          const auto cell = [&](const char* column) { return normalised(row.count(column) ? row.at(column) : ""); };
+          EXPECT_EQ(cell("type"), normalised(k->type)) << where << ": `" << name << "` type";
+          EXPECT_EQ(cell("default"), normalised(k->default_text)) << where << ": `" << name << "` default";
+          if (row.count("allowed")) {
+            EXPECT_EQ(cell("allowed"), normalised(k->allowed)) << where << ": `" << name << "` allowed";
+          }
+          ++checked;
+        }
+      }
+  }
+  EXPECT_GT(checked, 150u) << "the document's key tables were not found";
 }
 
 // The lists are what the reader uses: a key outside them is refused, naming them.

@@ -144,7 +144,7 @@ TEST(CaseLimits, LimitsTableIsChecked) {
   expect_error_in(base() + "\n[limits]\nmax_stepz = 5\n", "max_stepz = 5", "max_stepz = 5", "limits.max_stepz",
                   "did you mean 'max_steps'?");
   expect_error_in(base() + "\n[limits]\nmax_steps = 0\n", "max_steps = 0", "max_steps = 0", "limits.max_steps",
-                  "0 is not >= 1");
+                  "0 is below 1");
 }
 
 }  // namespace

@@ -307,7 +307,7 @@ TEST(CaseParserErrors, PoissonRatioOutOfRange) {
 }
 
 TEST(CaseParserErrors, YoungsModulusNotPositive) {
-  expect_error("youngs_modulus = 2e8", "youngs_modulus = 0", "materials[1].youngs_modulus", "0 is not > 0");
+  expect_error("youngs_modulus = 2e8", "youngs_modulus = 0", "materials[1].youngs_modulus", "0 is outside (0, 1e+14] Pa");
 }
 
 TEST(CaseParserErrors, DensityNotPositive) {
@@ -332,7 +332,7 @@ TEST(CaseParserErrors, AlphaBelowOne) {
 }
 
 TEST(CaseParserErrors, RanksBelowOne) {
-  expect_error("ranks = 2", "ranks = 0", "levels[0].ranks", "give ranks >= 1");
+  expect_error("ranks = 2", "ranks = 0", "levels[0].ranks", "0 is outside [1, 1000000]; the number of MPI processes");
 }
 
 TEST(CaseParserErrors, DomainMinNotBelowMax) {

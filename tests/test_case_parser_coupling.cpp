@@ -294,7 +294,7 @@ TEST(CaseParserErrors, CouplingValueRanges) {
   expect_error_in(two_levels(), Edit{"heartbeat = 0.5", "heartbeat = 0.5\ntimeout = 0.5", "timeout"},
                   "coupling.timeout", "0.5 is not longer than heartbeat = 0.5");
   expect_error_in(two_levels(), Edit{"heartbeat = 0.5", "heartbeat = 0", "heartbeat"}, "coupling.heartbeat",
-                  "0 is not > 0");
+                  "0 is below 0.01 s of wall time; give heartbeat >= 0.01");
   expect_error_in(two_levels(), Edit{"heartbeat = 0.5", "interval = -1e-5", "interval"}, "coupling.interval",
                   "-1e-05 is negative");
   expect_error_in(two_levels(), Edit{"heartbeat = 0.5", "endpoint = \"localhost:5555\"", "endpoint"},
@@ -316,7 +316,7 @@ TEST(CaseParserErrors, CouplingValueRanges) {
   bad("velocity_ki = -1", "velocity_ki", "is negative");
   bad("velocity_ki = 62501", "velocity_ki", "is above velocity_gain^2 / 4 = 62500 1/s^2, where the correction oscillates");
   bad("acceleration_limit = -1", "acceleration_limit", "is negative");
-  bad("radius_bins = 0", "radius_bins", "give an integer >= 1");
+  bad("radius_bins = 0", "radius_bins", "0 is outside [1, 1000000]; the number of size bins");
   bad("radius_bins = 8.0", "radius_bins", "expected an integer, found float");
 }
 

@@ -27,26 +27,16 @@ using namespace detail;
 namespace {
 
 const char* const kAxis[3] = {"x", "y", "z"};
-constexpr double kMaxYoungsModulus = 1e14;     // Pa
-constexpr double kMinProgressInterval = 0.1;   // wall s: more often, the log grows by a line a step
 
 void read_materials(const Table& root, CaseSpec& spec, Names& names) {
-  for (const Table& t : array_of_tables(root, "materials")) {
-    t.allow(keys::kMaterial);
+  for (const Table& raw : array_of_tables(root, "materials")) {
+    const Table t = raw.declared({schema::kMaterial});
     MaterialSpec m;
-    m.name = t.required_string("name", "the material's name, e.g. name = \"glass\"");
+    m.name = t.required<std::string>("name");
     names.materials.add(t, m.name);
-    m.youngs_modulus = t.required_number("youngs_modulus", "Young's modulus in Pa (> 0)");
-    // Diamond has 1.2e12 Pa; far above, the Hertz coefficients overflow and the guard asks for dt = 0.
-    t.positive("youngs_modulus", m.youngs_modulus, "Pa");
-    t.check("youngs_modulus", m.youngs_modulus <= kMaxYoungsModulus,
-            num(m.youngs_modulus) + " is outside (0, " + num(kMaxYoungsModulus) +
-                "] Pa; no solid is stiffer than about 1.2e12 Pa (diamond)");
-    m.poisson_ratio = t.required_number("poisson_ratio", "Poisson's ratio in [0, 0.5)");
-    t.check("poisson_ratio", m.poisson_ratio >= 0.0 && m.poisson_ratio < 0.5,
-            num(m.poisson_ratio) + " is outside [0, 0.5)");
-    m.density = t.required_number("density", "the particle density in kg/m^3 (> 0)");
-    t.positive("density", m.density, "kg/m^3");
+    m.youngs_modulus = t.required<double>("youngs_modulus");
+    m.poisson_ratio = t.required<double>("poisson_ratio");
+    m.density = t.required<double>("density");
     m.loc = t.loc();
     spec.materials.push_back(m);
   }
@@ -55,22 +45,20 @@ void read_materials(const Table& root, CaseSpec& spec, Names& names) {
 }
 
 void read_contact(const Table& root, CaseSpec& spec) {
-  const auto t = root.table("contact");
-  if (!t) return;
-  t->allow(keys::kContact);
+  const Table t = optional_table(root, "contact").declared({schema::kContact});
   ContactSpec& c = spec.contact;
-  c.normal = t->choice("normal", c.normal, {"hertz"});
-  c.tangential = t->choice("tangential", c.tangential, {"history", "none"});
-  c.rolling = t->choice("rolling", c.rolling, {"none", "cdt"});
-  c.clamp_normal = t->boolean("clamp_normal").value_or(c.clamp_normal);
+  c.normal = t.choice("normal");
+  c.tangential = t.choice("tangential");
+  c.rolling = t.choice("rolling");
+  c.clamp_normal = t.value<bool>("clamp_normal");
 }
 
 void read_interactions(const Table& root, CaseSpec& spec, const Names& names) {
   std::map<std::pair<std::string, std::string>, std::string> seen;  // sorted pair -> "interactions[0], line 5"
-  for (const Table& t : array_of_tables(root, "interactions")) {
-    t.allow(keys::kInteraction);
+  for (const Table& raw : array_of_tables(root, "interactions")) {
+    const Table t = raw.declared({schema::kInteraction});
     InteractionSpec in;
-    if (!t.has("between")) t.fail_missing("between", "the two materials, e.g. between = [\"glass\", \"steel\"]");
+    if (!t.has("between")) t.fail_missing("between", std::string(t.spec("between").doc));
     const auto between = *t.strings("between", 2);
     in.a = between[0];
     in.b = between[1];
@@ -82,12 +70,9 @@ void read_interactions(const Table& root, CaseSpec& spec, const Names& names) {
     if (!fresh)
       t.fail("between", "a second interaction between '" + in.a + "' and '" + in.b + "' (also " + it->second +
                             "); give each pair of materials once");
-    in.restitution = t.required_number("restitution", "the coefficient of restitution in (0, 1]");
-    t.check("restitution", in.restitution > 0.0 && in.restitution <= 1.0, num(in.restitution) + " is outside (0, 1]");
-    in.friction = t.required_number("friction", "the Coulomb friction coefficient (>= 0)");
-    t.non_negative("friction", in.friction, "");
-    in.rolling_friction = t.number("rolling_friction", 0.0);
-    t.non_negative("rolling_friction", in.rolling_friction, "");
+    in.restitution = t.required<double>("restitution");
+    in.friction = t.required<double>("friction");
+    in.rolling_friction = t.value<double>("rolling_friction");
     if (in.rolling_friction > 0.0 && spec.contact.rolling == "none")
       t.fail("rolling_friction", num(in.rolling_friction) +
                                      " needs a rolling model, but [contact] rolling = \"none\"; set rolling = \"cdt\" "
@@ -102,35 +87,26 @@ void read_interactions(const Table& root, CaseSpec& spec, const Names& names) {
 void read_levels(const Table& root, CaseSpec& spec, Names& names) {
   const auto tables = array_of_tables(root, "levels");
   for (size_t i = 0; i < tables.size(); ++i) {
-    const Table& t = tables[i];
-    t.allow(keys::kLevel);
+    const Table t = tables[i].declared({schema::kLevel});
     LevelSpec l;
-    l.name = t.has("name") ? t.required_string("name", "the level's name") : "level" + std::to_string(i);
+    l.name = t.has("name") ? t.required<std::string>("name") : "level" + std::to_string(i);
     names.levels.add(t, l.name);
-    l.alpha = t.number("alpha", l.alpha);
-    t.check("alpha", l.alpha >= 1.0, num(l.alpha) + " is below 1; the coarse-grain ratio alpha must be >= 1");
+    l.alpha = t.value<double>("alpha");
     if (t.has("dt") && t.has("dt_alpha1"))
       t.fail("dt_alpha1", "both dt and dt_alpha1 given; give dt (this level's step) or dt_alpha1 (the step at "
                           "alpha = 1, scaled by alpha)");
     if (t.has("dt_rayleigh") && (t.has("dt") || t.has("dt_alpha1")))
       t.fail("dt_rayleigh", "given together with dt or dt_alpha1; give exactly one way to set the time step");
     if (t.has("dt_alpha1")) {
-      l.dt_alpha1 = t.required_number("dt_alpha1", "the time step at alpha = 1 in s (> 0)");
-      t.positive("dt_alpha1", l.dt_alpha1, "s");
+      l.dt_alpha1 = t.required<double>("dt_alpha1");
       l.dt = l.dt_alpha1 * l.alpha;
     } else if (t.has("dt_rayleigh")) {  // resolved once the particles are known (resolve_rayleigh_dt)
-      l.dt_rayleigh = t.required_number("dt_rayleigh", "a share of the Rayleigh time in (0, 1]");
-      t.check("dt_rayleigh", l.dt_rayleigh > 0.0 && l.dt_rayleigh <= 1.0, num(l.dt_rayleigh) + " is outside (0, 1]");
+      l.dt_rayleigh = t.required<double>("dt_rayleigh");
     } else {
-      l.dt = t.required_number("dt", "the time step in s (> 0), or dt_alpha1, or dt_rayleigh");
-      t.positive("dt", l.dt, "s");
+      l.dt = t.required<double>("dt");
     }
-    const int64_t ranks = t.integer("ranks").value_or(l.ranks);
-    t.check("ranks", ranks >= 1 && ranks <= 1'000'000, std::to_string(ranks) + " is not a valid number of MPI "
-                                                             "processes; give ranks >= 1");
-    l.ranks = static_cast<int>(ranks);
-    l.skin = t.number("skin", l.skin);
-    t.non_negative("skin", l.skin, "m (0 = automatic)");
+    l.ranks = static_cast<int>(t.value<int64_t>("ranks"));
+    l.skin = t.value<double>("skin");
     if (const auto grid = t.numbers("processors", 3)) {
       int64_t product = 1;
       for (double g : *grid) {
@@ -143,7 +119,7 @@ void read_levels(const Table& root, CaseSpec& spec, Names& names) {
               fmt::format("[{}, {}, {}] makes {} boxes but ranks = {}; the product must equal ranks",
                           l.processors[0], l.processors[1], l.processors[2], product, l.ranks));
     }
-    l.balance = t.boolean("balance").value_or(l.balance);
+    l.balance = t.value<bool>("balance");
     l.loc = t.loc();
     spec.levels.push_back(l);
   }
@@ -158,76 +134,53 @@ void read_levels(const Table& root, CaseSpec& spec, Names& names) {
 }
 
 void read_domain(const Table& root, CaseSpec& spec) {
-  const auto t = root.table("domain");
-  t->allow(keys::kDomain);
-  spec.domain.min = t->required_vec3("min", "the lower corner, e.g. min = [-0.1, -0.1, 0.0] (m)");
-  spec.domain.max = t->required_vec3("max", "the upper corner, e.g. max = [0.1, 0.1, 0.5] (m)");
+  const Table t = root.table("domain")->declared({schema::kDomain});
+  spec.domain.min = t.required<Vec3>("min");
+  spec.domain.max = t.required<Vec3>("max");
   for (int a = 0; a < 3; ++a)
-    t->check("max", spec.domain.max[a] > spec.domain.min[a],
+    t.check("max", spec.domain.max[a] > spec.domain.min[a],
              std::string("max.") + kAxis[a] + " = " + num(spec.domain.max[a]) + " is not above min." + kAxis[a] +
                  " = " + num(spec.domain.min[a]) + "; the domain needs min < max in every axis");
 }
 
 void read_output(const Table& root, CaseSpec& spec) {
-  const auto t = root.table("output");
-  if (!t) return;
-  t->allow(keys::kOutput);
+  const Table t = optional_table(root, "output").declared({schema::kOutput});
   OutputSpec& o = spec.output;
-  o.snapshot_interval = t->number("snapshot_interval", o.snapshot_interval);
-  t->non_negative("snapshot_interval", o.snapshot_interval, "s (0 = only the final state)");
-  o.checkpoint_interval = t->number("checkpoint_interval", o.checkpoint_interval);
-  t->non_negative("checkpoint_interval", o.checkpoint_interval, "s (0 = only at the end)");
-  o.stats_interval = t->number("stats_interval", o.stats_interval);
-  t->positive("stats_interval", o.stats_interval, "s");
-  o.energy_interval = t->number("energy_interval", o.energy_interval);
-  t->non_negative("energy_interval", o.energy_interval, "s (0 = no energy account)");
+  o.snapshot_interval = t.value<double>("snapshot_interval");
+  o.checkpoint_interval = t.value<double>("checkpoint_interval");
+  o.stats_interval = t.value<double>("stats_interval");
+  o.energy_interval = t.value<double>("energy_interval");
 }
 
 void read_stability(const Table& root, CaseSpec& spec) {
-  const auto t = root.table("stability");
-  if (!t) return;
-  t->allow(keys::kStability);
+  const Table t = optional_table(root, "stability").declared({schema::kStability});
   StabilitySpec& s = spec.stability;
-  auto fraction = [&](const char* k, double& v) {
-    v = t->number(k, v);
-    t->check(k, v > 0.0 && v <= 1.0, num(v) + " is outside (0, 1]");
-  };
-  fraction("rayleigh_fraction", s.rayleigh_fraction);
-  fraction("max_overlap_fraction", s.max_overlap_fraction);
-  s.min_steps_per_contact = t->number("min_steps_per_contact", s.min_steps_per_contact);
-  t->check("min_steps_per_contact", s.min_steps_per_contact >= 1.0,
-           num(s.min_steps_per_contact) + " is below 1; give at least 1 time step per contact");
-  s.max_impact_speed = t->number("max_impact_speed", s.max_impact_speed);
-  t->check("max_impact_speed", s.max_impact_speed != 0.0,
-           "0 is not allowed; give a speed > 0 in m/s, or a negative value to estimate it");
-  s.dt_override_reason = t->string("dt_override_reason").value_or("");
+  s.rayleigh_fraction = t.value<double>("rayleigh_fraction");
+  s.max_overlap_fraction = t.value<double>("max_overlap_fraction");
+  s.min_steps_per_contact = t.value<double>("min_steps_per_contact");
+  s.max_impact_speed = t.value<double>("max_impact_speed");
+  t.check("max_impact_speed", s.max_impact_speed != 0.0,
+          "0 is not allowed; give a speed > 0 in m/s, or a negative value to estimate it");
+  s.dt_override_reason = t.value<std::string>("dt_override_reason");
 }
 
 void read_time(const Table& root, CaseSpec& spec, const Names& names) {
-  const auto t = root.table("time");
-  t->allow(keys::kTime);
+  const Table t = root.table("time")->declared({schema::kTime});
   TimeSpec& tm = spec.time;
-  const toml::node* end = t->node("end");
-  const std::string how = "end = <seconds> or end = { event = \"<event name>\", plus = <seconds> }";
-  if (!end) t->fail_missing("end", how);
+  const toml::node* end = t.node("end");
+  const std::string how(t.spec("end").doc);
+  if (!end) t.fail_missing("end", how);
   if (end->is_table()) {
-    const Table e = *t->table("end");
-    e.allow(keys::kEndAfterEvent, "end = { ... }");
-    tm.end_event = e.required_string("event", "the name of an [[events]] entry");
+    const Table e = t.table("end")->declared({schema::kEndAfterEvent}, "end = { ... }");
+    tm.end_event = e.required<std::string>("event");
     check_reference(e, "event", tm.end_event, names.events, "event");
-    tm.end_plus = e.number("plus", 0.0);
-    e.non_negative("plus", tm.end_plus, "s");
+    tm.end_plus = e.value<double>("plus");
   } else if (end->is_number()) {
-    tm.end = *t->number("end");
-    t->positive("end", tm.end, "s");
+    tm.end = t.required<double>("end");
   } else {
-    t->fail("end", std::string("expected a number or a table, found ") + type_name(*end) + "; give " + how);
+    t.fail("end", std::string("expected a number or a table, found ") + type_name(*end) + "; give " + how);
   }
-  tm.progress_interval = t->number("progress_interval", tm.progress_interval);
-  t->check("progress_interval", tm.progress_interval >= kMinProgressInterval,
-           num(tm.progress_interval) + " is below " + num(kMinProgressInterval) +
-               " s of wall time; progress lines more often would fill the log; give progress_interval >= " +
-               num(kMinProgressInterval));
+  tm.progress_interval = t.value<double>("progress_interval");
 }
 
 // Every pair of materials that can meet needs an [[interactions]] entry: each
@@ -319,8 +272,7 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   const Doc doc{path_for_messages, folder_of(path_for_messages)};
   CaseTree tree = read_case_tree(toml_text, doc);  // a variant laid over its base
   const toml::table& tbl = tree.root;
-  const Table root(doc, tbl, "");
-  root.allow(keys::kTop, "the top level");
+  const Table root = Table(doc, tbl, "").declared({schema::kTop}, "the top level");
   for (const char* k : {"materials", "interactions", "levels"})
     if (!root.has(k)) fail(doc, 1, k, "missing required table; add at least one [[" + std::string(k) + "]] entry");
   for (const char* k : {"domain", "time"})
@@ -330,12 +282,9 @@ CaseSpec parse_case(std::string_view toml_text, const std::string& path_for_mess
   spec.path = path_for_messages;
   spec.dir = doc.dir;
   spec.bases = std::move(tree.bases);
-  spec.title = root.string("title").value_or("");
-  if (const auto seed = root.integer("seed")) {
-    root.check("seed", *seed >= 0, std::to_string(*seed) + " is negative; give an integer >= 0");
-    spec.seed = static_cast<uint64_t>(*seed);
-  }
-  spec.gravity = root.vec3("gravity").value_or(spec.gravity);
+  spec.title = root.value<std::string>("title");
+  spec.seed = static_cast<uint64_t>(root.value<int64_t>("seed"));
+  spec.gravity = root.value<Vec3>("gravity");
 
   // Order matters: later tables refer to names and the domain read earlier.
   Names names;

@@ -19,8 +19,7 @@ const char* const kAxis[3] = {"x", "y", "z"};
 
 constexpr double kMinFineSteps = 15.0;   // automatic interval: at least this many steps of the finest dt
 constexpr int kMaxMultiples = 10000;      // multiples of the largest dt tried before giving up
-constexpr double kReachTolerance = 1e-9;
-constexpr double kMinHeartbeat = 0.01;    // wall s  // relative: a multiple this close below at_least reaches it
+constexpr double kReachTolerance = 1e-9;  // relative: a multiple this close below at_least reaches it
 
 bool divides(double dt, double interval) { return whole_steps(interval, dt) > 0; }
 
@@ -92,12 +91,12 @@ double resolve_interval(const Table& t, double interval, const std::vector<Level
   return *automatic;
 }
 
-CouplingRegionSpec read_region(const Table& r, const CaseSpec& spec, const Names& names) {
-  r.allow(keys::kCouplingRegion);
+CouplingRegionSpec read_region(const Table& raw, const CaseSpec& spec, const Names& names) {
+  const Table r = raw.declared({schema::kCouplingRegion});
   CouplingRegionSpec g;
-  g.coarse = r.required_string("coarse", "the name of the coarser [[levels]] entry, e.g. coarse = \"cg2\"");
+  g.coarse = r.required<std::string>("coarse");
   check_reference(r, "coarse", g.coarse, names.levels, "level");
-  g.fine = r.required_string("fine", "the name of the finer [[levels]] entry (smaller alpha), e.g. fine = \"fine\"");
+  g.fine = r.required<std::string>("fine");
   check_reference(r, "fine", g.fine, names.levels, "level");
   const LevelSpec& coarse = level_named(spec, g.coarse);
   const LevelSpec& fine = level_named(spec, g.fine);
@@ -111,9 +110,8 @@ CouplingRegionSpec read_region(const Table& r, const CaseSpec& spec, const Names
 
   read_box(r, g.min, g.max, "the fine region");
   check_inside_domain(r, "min", "max", g.min, g.max, spec.domain);
-  g.cell_size = r.number("cell_size", g.cell_size);
-  r.positive("cell_size", g.cell_size, "m");
-  if (const auto p = r.vec3("inside")) {
+  g.cell_size = r.value<double>("cell_size");
+  if (const auto p = r.optional<Vec3>("inside")) {
     for (int a = 0; a < 3; ++a)
       r.check("inside", (*p)[a] >= g.min[a] && (*p)[a] <= g.max[a],
               std::string(kAxis[a]) + " = " + num((*p)[a]) + " is outside the region's box (" + kAxis[a] +
@@ -121,28 +119,17 @@ CouplingRegionSpec read_region(const Table& r, const CaseSpec& spec, const Names
                   "); give a point inside min..max that lies inside the geometry");
     g.inside = *p;
   }
-  g.insert_depth = r.number("insert_depth", g.insert_depth);
-  r.non_negative("insert_depth", g.insert_depth, "m (0 = automatic)");
-  g.fade = r.number("fade", g.fade);
-  r.positive("fade", g.fade, "fine particle diameters");
-  g.kp = r.number("kp", g.kp);
-  r.non_negative("kp", g.kp, "Pa traction per Pa stress error");
-  g.ki = r.number("ki", g.ki);
-  r.non_negative("ki", g.ki, "1/s");
-  g.traction_limit = r.number("traction_limit", g.traction_limit);
-  r.non_negative("traction_limit", g.traction_limit, "Pa (0 = automatic)");
-  g.correct = r.choice("correct", g.correct, {"mass_flow", "velocity", "none"});
-  g.velocity_gain = r.number("velocity_gain", g.velocity_gain);
-  r.positive("velocity_gain", g.velocity_gain, "1/s");
-  g.velocity_ki = r.number("velocity_ki", 0.1 * g.velocity_gain * g.velocity_gain);
-  r.non_negative("velocity_ki", g.velocity_ki, "1/s^2");
-  g.acceleration_limit = r.number("acceleration_limit", g.acceleration_limit);
-  r.non_negative("acceleration_limit", g.acceleration_limit, "m/s^2 (0 = automatic)");
-  g.velocity_only_below = r.number("velocity_only_below", g.velocity_only_below, true);
-  const int64_t bins = r.integer("radius_bins").value_or(g.radius_bins);
-  r.check("radius_bins", bins >= 1 && bins <= 1'000'000,
-          std::to_string(bins) + " is not a valid number of size bins; give an integer >= 1");
-  g.radius_bins = static_cast<int>(bins);
+  g.insert_depth = r.value<double>("insert_depth");
+  g.fade = r.value<double>("fade");
+  g.kp = r.value<double>("kp");
+  g.ki = r.value<double>("ki");
+  g.traction_limit = r.value<double>("traction_limit");
+  g.correct = r.choice("correct");
+  g.velocity_gain = r.value<double>("velocity_gain");
+  g.velocity_ki = r.optional<double>("velocity_ki").value_or(0.1 * g.velocity_gain * g.velocity_gain);
+  g.acceleration_limit = r.value<double>("acceleration_limit");
+  g.velocity_only_below = r.value<double>("velocity_only_below");
+  g.radius_bins = static_cast<int>(r.value<int64_t>("radius_bins"));
   g.loc = r.loc();
   for (const char* k : {"min", "max", "cell_size", "coarse", "fine"})
     if (r.has(k)) g.key_locs[k] = r.loc(k);
@@ -158,30 +145,22 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
     t->fail_table("a [coupling] section needs more than one [[levels]] entry, found " +
                   std::to_string(spec.levels.size()) +
                   "; remove [coupling] for a single-level case, or add the finer [[levels]] it couples");
-  t->allow(keys::kCoupling);
+  const Table d = t->declared({schema::kCoupling});
   CouplingSpec c;
-  c.interval = t->number("interval", c.interval);
-  t->non_negative("interval", c.interval, "s (0 = automatic)");
-  c.interval = resolve_interval(*t, c.interval, spec.levels);
-  c.endpoint = t->string("endpoint").value_or(c.endpoint);
-  t->check("endpoint",
+  c.interval = resolve_interval(d, d.value<double>("interval"), spec.levels);
+  c.endpoint = d.value<std::string>("endpoint");
+  d.check("endpoint",
            c.endpoint.empty() || ((c.endpoint.rfind("tcp://", 0) == 0 || c.endpoint.rfind("ipc://", 0) == 0) &&
                                   c.endpoint.size() > 6),
            "'" + c.endpoint + "' is not an endpoint the levels can reach; give tcp://HOST:PORT or ipc://PATH, or "
            "leave it out (ipc:// in the run folder)");
-  c.heartbeat = t->number("heartbeat", c.heartbeat);
-  // Faster, the bus would carry little but heartbeats.
-  t->positive("heartbeat", c.heartbeat, "s of wall time");
-  t->check("heartbeat", c.heartbeat >= kMinHeartbeat,
-           num(c.heartbeat) + " is below " + num(kMinHeartbeat) + " s of wall time; give heartbeat >= " +
-               num(kMinHeartbeat));
-  c.timeout = t->number("timeout", c.timeout);
-  t->check("timeout", c.timeout > c.heartbeat,
+  c.heartbeat = d.value<double>("heartbeat");
+  c.timeout = d.value<double>("timeout");
+  d.check("timeout", c.timeout > c.heartbeat,
            num(c.timeout) + " is not longer than heartbeat = " + num(c.heartbeat) +
                "; give a timeout in s of wall time above the heartbeat");
 
-  c.checkpoint_every = t->number("checkpoint_every", c.checkpoint_every);
-  t->non_negative("checkpoint_every", c.checkpoint_every, "s of simulated time (0 = automatic)");
+  c.checkpoint_every = d.value<double>("checkpoint_every");
 
   const auto tables = array_of_tables(*t, "regions");
   if (tables.empty())
@@ -232,28 +211,23 @@ void read_launcher(const Table& root, CaseSpec& spec) {
   for (const Table& w : array_of_tables(root, "swap")) {
     if (spec.levels.size() < 2)
       w.fail_table("[[swap]] replaces a level of a multi-level run; a single-level case has none: remove it");
-    w.allow(keys::kSwap);
+    const Table t = w.declared({schema::kSwap});
     SwapSpec s;
-    s.loc = w.loc();
-    s.level = w.required_string("level", "the name of a [[levels]] entry");
+    s.loc = t.loc();
+    s.level = t.required<std::string>("level");
     const bool known = std::any_of(spec.levels.begin(), spec.levels.end(), [&](const LevelSpec& l) { return l.name == s.level; });
-    w.check("level", known, "'" + s.level + "' is not a [[levels]] entry of this case");
-    s.at = w.required_number("at", "the simulated time [s] of the swap");
-    w.non_negative("at", s.at, "s of simulated time");
-    s.binary = w.required_string("binary", "the path of the new solver binary");
-    if (!s.binary.empty() && s.binary.front() != '/') s.binary = w.folder("binary") + "/" + s.binary;
+    t.check("level", known, "'" + s.level + "' is not a [[levels]] entry of this case");
+    s.at = t.required<double>("at");
+    s.binary = t.required<std::string>("binary");
+    if (!s.binary.empty() && s.binary.front() != '/') s.binary = t.folder("binary") + "/" + s.binary;
     spec.swaps.push_back(std::move(s));
   }
   const auto t = root.table("launcher");
   if (!t) return;
   if (spec.levels.size() < 2)
     t->fail_table("[launcher] supervises a multi-level run; a single-level case has nothing to restart: remove it");
-  t->allow(keys::kLauncher);
-  if (const auto n = t->integer("restart_on_failure")) {
-    t->check("restart_on_failure", *n >= 0 && *n <= 100,
-             std::to_string(*n) + " is outside [0, 100]; give how many times a failed hierarchy is restarted");
-    spec.launcher.restart_on_failure = static_cast<int>(*n);
-  }
+  spec.launcher.restart_on_failure =
+      static_cast<int>(t->declared({schema::kLauncher}).value<int64_t>("restart_on_failure"));
 }
 
 }  // namespace mlcg::config::detail

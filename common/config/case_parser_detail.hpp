@@ -5,6 +5,7 @@
 #include <toml++/toml.h>
 
 #include <cstdint>
+#include <initializer_list>
 #include <map>
 #include <optional>
 #include <string>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "config/case_keys.hpp"
+#include "config/case_schema.hpp"
 #include "config/case_parser.hpp"
 
 namespace mlcg::config::detail {
@@ -78,11 +80,21 @@ class Table {
   // `kind` names what the list belongs to, e.g. "a cylinder wall".
   void allow(const std::vector<std::string>& allowed, std::string_view kind = {}) const;
 
+  // The same table with its keys declared (case_schema*.hpp): any other key is refused as by allow(), and
+  // the readers below take a key's type, default, bounds and doc from its declaration.
+  Table declared(std::initializer_list<schema::Keys> keys, std::string_view kind = {}) const;
+  const schema::KeySpec& spec(std::string_view k) const;  // the declaration of k (std::logic_error if none)
+  // T is double, int64_t, bool, std::string or Vec3. Numbers and integers are checked against the declared
+  // bounds ("0 is not > 0; give a positive value in s").
+  template <class T> std::optional<T> optional(std::string_view k) const;  // absent -> nullopt
+  template <class T> T value(std::string_view k) const;                    // absent -> the declared default
+  template <class T> T required(std::string_view k) const;  // absent -> "missing required key; give DOC"
+  std::string choice(std::string_view k) const;  // one of the declared allowed values; absent -> the default
+  std::string choice(const schema::KeySpec& k) const;  // the same for a declaration given here
+
   // Typed readers: absent -> nullopt (or the default); wrong type -> CaseError.
   // Integers are accepted for numbers; floats are not accepted for integers.
   std::optional<double> number(std::string_view k, bool allow_inf = false) const;
-  double number(std::string_view k, double def, bool allow_inf = false) const;
-  double required_number(std::string_view k, const std::string& expected) const;
   std::optional<int64_t> integer(std::string_view k) const;
   std::optional<bool> boolean(std::string_view k) const;
   std::optional<std::string> string(std::string_view k) const;
@@ -97,18 +109,28 @@ class Table {
   std::optional<std::vector<std::string>> strings(std::string_view k, size_t exact_size = 0) const;
   std::optional<Table> table(std::string_view k) const;  // inline { } or [a.b]
 
-  // Value checks at k's line: "V is outside [lo, hi)" and the like.
+  // A check at k's line that no declaration says: between keys, against other tables ("max.x = 0 is not above
+  // min.x"). A key's own bounds are checked by the readers above, from its declaration.
   void check(std::string_view k, bool ok, const std::string& what) const {
     if (!ok) fail(k, what);
   }
-  void positive(std::string_view k, double v, std::string_view unit) const;      // > 0
-  void non_negative(std::string_view k, double v, std::string_view unit) const;  // >= 0
 
  private:
   const Doc* doc_;
   const toml::table* t_;
   std::string path_;
+  std::vector<schema::Keys> keys_;  // what declared() declared
 };
+
+template <> std::optional<double> Table::optional<double>(std::string_view k) const;
+template <> std::optional<int64_t> Table::optional<int64_t>(std::string_view k) const;
+template <> std::optional<bool> Table::optional<bool>(std::string_view k) const;
+template <> std::optional<std::string> Table::optional<std::string>(std::string_view k) const;
+template <> std::optional<Vec3> Table::optional<Vec3>(std::string_view k) const;
+template <> std::string Table::required<std::string>(std::string_view k) const;
+
+// An optional [k] table of root, or an empty one when k is absent: its keys then take their declared defaults.
+Table optional_table(const Table& root, std::string_view k);
 
 // [[key]] at the top level: every element must be a table. Absent -> empty.
 std::vector<Table> array_of_tables(const Table& root, std::string_view k);

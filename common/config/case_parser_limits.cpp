@@ -106,19 +106,12 @@ void enforce(std::vector<Cost> costs, double limit, const std::string& limit_key
 }  // namespace
 
 void read_limits(const Table& root, CaseSpec& spec) {
-  const auto t = root.table("limits");
-  if (!t) return;
-  t->allow(keys::kLimits, "[limits]");
+  const Table d = optional_table(root, "limits").declared({schema::kLimits}, "[limits]");
   LimitsSpec& l = spec.limits;
-  l.max_steps = t->integer("max_steps").value_or(l.max_steps);
-  t->check("max_steps", l.max_steps >= 1, std::to_string(l.max_steps) + " is not >= 1; give the most time steps a "
-                                                                         "level may take to reach the end");
-  l.max_output_files = t->integer("max_output_files").value_or(l.max_output_files);
-  t->check("max_output_files", l.max_output_files >= 1,
-           std::to_string(l.max_output_files) + " is not >= 1; give the most files a run may write");
-  l.max_memory_gb = t->number("max_memory_gb", l.max_memory_gb);
-  t->positive("max_memory_gb", l.max_memory_gb, "GB");
-  l.loc = t->loc();
+  l.max_steps = d.value<int64_t>("max_steps");
+  l.max_output_files = d.value<int64_t>("max_output_files");
+  l.max_memory_gb = d.value<double>("max_memory_gb");
+  if (root.has("limits")) l.loc = d.loc();
 }
 
 namespace {

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
+#include <stdexcept>
+#include <type_traits>
 
 #include "config/case_parser_detail.hpp"
 
@@ -208,15 +210,6 @@ std::optional<double> Table::number(std::string_view k, bool allow_inf) const {
   return as_number(*doc_, *n, key(k), allow_inf);
 }
 
-double Table::number(std::string_view k, double def, bool allow_inf) const {
-  return number(k, allow_inf).value_or(def);
-}
-
-double Table::required_number(std::string_view k, const std::string& expected) const {
-  if (!has(k)) fail_missing(k, expected);
-  return *number(k);
-}
-
 std::optional<int64_t> Table::integer(std::string_view k) const {
   const toml::node* n = node(k);
   if (!n) return std::nullopt;
@@ -289,12 +282,114 @@ std::optional<Table> Table::table(std::string_view k) const {
   fail(k, std::string("expected a table, found ") + type_name(*n));
 }
 
-void Table::positive(std::string_view k, double v, std::string_view unit) const {
-  if (!(v > 0.0)) fail(k, num(v) + " is not > 0; give a positive value" + (unit.empty() ? "" : " in " + std::string(unit)));
+// ---- reading through the declaration ----------------------------------------
+
+Table Table::declared(std::initializer_list<schema::Keys> keys, std::string_view kind) const {
+  Table out = *this;
+  out.keys_.assign(keys.begin(), keys.end());
+  std::vector<std::string> allowed;
+  for (schema::Keys list : keys)
+    for (const schema::KeySpec& k : list) allowed.emplace_back(k.name);
+  allow(allowed, kind);
+  return out;
 }
 
-void Table::non_negative(std::string_view k, double v, std::string_view unit) const {
-  if (!(v >= 0.0)) fail(k, num(v) + " is negative; give a value >= 0" + (unit.empty() ? "" : " in " + std::string(unit)));
+const schema::KeySpec& Table::spec(std::string_view k) const {
+  for (schema::Keys list : keys_)
+    if (const schema::KeySpec* s = schema::find(list, k)) return *s;
+  throw std::logic_error("the reader of " + (path_.empty() ? std::string("the top level") : path_) +
+                         " asks for key '" + std::string(k) + "', which its declaration lacks");
+}
+
+template <>
+std::optional<double> Table::optional<double>(std::string_view k) const {
+  const schema::KeySpec& s = spec(k);
+  const auto v = number(k, s.bounds.allows_inf());
+  if (v && !s.bounds.contains(*v)) fail(k, schema::bounds_message(s, *v));
+  return v;
+}
+
+template <>
+std::optional<int64_t> Table::optional<int64_t>(std::string_view k) const {
+  const schema::KeySpec& s = spec(k);
+  const auto v = integer(k);
+  if (v && !s.bounds.contains(static_cast<double>(*v))) fail(k, schema::bounds_message(s, static_cast<double>(*v)));
+  return v;
+}
+
+template <>
+std::optional<bool> Table::optional<bool>(std::string_view k) const {
+  spec(k);
+  return boolean(k);
+}
+
+template <>
+std::optional<std::string> Table::optional<std::string>(std::string_view k) const {
+  spec(k);
+  return string(k);
+}
+
+template <>
+std::optional<Vec3> Table::optional<Vec3>(std::string_view k) const {
+  spec(k);
+  return vec3(k);
+}
+
+namespace {
+
+// The declared default of k as T; a declaration without one is the reader's mistake, not the case's.
+template <class T>
+T declared_default(const schema::KeySpec& k) {
+  std::optional<T> v;
+  if constexpr (std::is_same_v<T, double>) v = schema::default_number(k);
+  else if constexpr (std::is_same_v<T, int64_t>) {
+    if (const auto d = schema::default_number(k)) v = static_cast<int64_t>(*d);
+  } else if constexpr (std::is_same_v<T, bool>) v = schema::default_boolean(k);
+  else if constexpr (std::is_same_v<T, std::string>) v = schema::default_string(k);
+  else if (const auto n = schema::default_numbers(k); n && n->size() == 3) v = Vec3{(*n)[0], (*n)[1], (*n)[2]};
+  if (!v) throw std::logic_error("key '" + std::string(k.name) + "' declares no default value: " +
+                                 std::string(k.default_text));
+  return *v;
+}
+
+}  // namespace
+
+template <class T>
+T Table::value(std::string_view k) const {
+  if (auto v = optional<T>(k)) return *v;
+  return declared_default<T>(spec(k));
+}
+
+template <class T>
+T Table::required(std::string_view k) const {
+  if (!has(k)) fail_missing(k, std::string(spec(k).doc));
+  return *optional<T>(k);
+}
+
+template <>
+std::string Table::required<std::string>(std::string_view k) const {
+  return required_string(k, std::string(spec(k).doc));
+}
+
+template double Table::value<double>(std::string_view) const;
+template int64_t Table::value<int64_t>(std::string_view) const;
+template bool Table::value<bool>(std::string_view) const;
+template std::string Table::value<std::string>(std::string_view) const;
+template Vec3 Table::value<Vec3>(std::string_view) const;
+template double Table::required<double>(std::string_view) const;
+template int64_t Table::required<int64_t>(std::string_view) const;
+template Vec3 Table::required<Vec3>(std::string_view) const;
+
+std::string Table::choice(std::string_view k) const { return choice(spec(k)); }
+
+std::string Table::choice(const schema::KeySpec& k) const {
+  return choice(k.name, schema::default_string(k).value_or(""), schema::choices(k));
+}
+
+Table optional_table(const Table& root, std::string_view k) {
+  static const toml::table empty;
+  if (auto t = root.table(k)) return *t;
+  return Table(root.doc(), empty, root.key(k));
 }
 
 std::vector<Table> array_of_tables(const Table& root, std::string_view k) {

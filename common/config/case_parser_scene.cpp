@@ -17,22 +17,22 @@ namespace {
 const char* const kAxis[3] = {"x", "y", "z"};
 
 // A direction: a non-zero 3-vector, returned normalised.
-Vec3 direction(const Table& t, std::string_view k, const Vec3& def) {
-  const Vec3 v = t.vec3(k).value_or(def);
+Vec3 direction(const Table& t, std::string_view k) {
+  const Vec3 v = t.value<Vec3>(k);
   t.check(k, norm(v) > 0.0 && std::isfinite(norm(v)), vec(v) + " has zero length; give a nonzero direction");
   return normalized(v);
 }
 
 // bottom < top along a wall's axis.
 void read_extent(const Table& t, WallSpec& w) {
-  w.bottom = t.required_number("bottom", "the lower end along the axis, measured from center (m)");
-  w.top = t.required_number("top", "the upper end along the axis, measured from center (m)");
+  w.bottom = t.required<double>("bottom");
+  w.top = t.required<double>("top");
   t.check("top", w.bottom < w.top,
           "bottom = " + num(w.bottom) + " is not below top = " + num(w.top) + "; the wall needs bottom < top");
 }
 
 void read_rims(const Table& t, WallSpec& w) {
-  const std::string rims = t.choice("rims", "none", {"none", "bottom", "top", "both"});
+  const std::string rims = t.choice("rims");
   w.rim_bottom = rims == "bottom" || rims == "both";
   w.rim_top = rims == "top" || rims == "both";
 }
@@ -65,51 +65,45 @@ void check_inside_domain(const Table& t, std::string_view k_lo, std::string_view
 // ---- [[walls]] --------------------------------------------------------------
 
 void read_walls(const Table& root, CaseSpec& spec, Names& names) {
-  const std::vector<std::string> types{"plane", "cylinder", "cone", "disk", "mesh"};
-  for (const Table& t : array_of_tables(root, "walls")) {
+  const std::vector<std::string> types = schema::choices(schema::kWall[1]);
+  static const schema::Keys of_type[] = {schema::kPlane, schema::kCylinder, schema::kCone, schema::kDisk,
+                                         schema::kMesh};  // in WallType order
+  for (const Table& raw : array_of_tables(root, "walls")) {
     WallSpec w;
-    if (!t.has("type")) t.fail_missing("type", "the wall's type, one of " + join(types));
-    const std::string type = t.choice("type", "", types);
+    if (!raw.has("type")) raw.fail_missing("type", "the wall's type, one of " + join(types));
+    const std::string type = raw.choice("type", "", types);
     w.type = static_cast<WallType>(std::find(types.begin(), types.end(), type) - types.begin());
-    static const keys::List* const of_type[] = {&keys::kPlane, &keys::kCylinder, &keys::kCone, &keys::kDisk,
-                                                &keys::kMesh};  // in WallType order
-    keys::List allowed = keys::kWall;
-    const keys::List& own = *of_type[static_cast<int>(w.type)];
-    allowed.insert(allowed.end(), own.begin(), own.end());
-    t.allow(allowed, "a " + type + " wall");
-    w.name = t.required_string("name", "the wall's name, e.g. name = \"silo\"");
+    const Table t = raw.declared({schema::kWall, of_type[static_cast<int>(w.type)]}, "a " + type + " wall");
+    w.name = t.required<std::string>("name");
     names.walls.add(t, w.name);
-    w.material = t.required_string("material", "the name of a [[materials]] entry");
+    w.material = t.required<std::string>("material");
     check_reference(t, "material", w.material, names.materials, "material");
 
     switch (w.type) {
       case WallType::Plane:
-        w.point = t.vec3("point").value_or(w.point);
-        w.normal = direction(t, "normal", w.normal);
+        w.point = t.value<Vec3>("point");
+        w.normal = direction(t, "normal");
         break;
       case WallType::Cylinder:
       case WallType::Disk:
-        w.center = t.vec3("center").value_or(w.center);
-        w.axis = direction(t, "axis", w.axis);
-        w.radius = t.required_number("radius", "the radius in m (> 0)");
-        t.positive("radius", w.radius, "m");
+        w.center = t.value<Vec3>("center");
+        w.axis = direction(t, "axis");
+        w.radius = t.required<double>("radius");
         if (w.type == WallType::Cylinder) {
           read_extent(t, w);
           read_rims(t, w);
         } else {  // an annulus: its inner edge is the rim of a hole (an orifice in a flat floor)
-          w.inner_radius = t.number("inner_radius", w.inner_radius);
+          w.inner_radius = t.value<double>("inner_radius");
           t.check("inner_radius", w.inner_radius >= 0.0 && w.inner_radius < w.radius,
                   num(w.inner_radius) + " is outside [0, radius = " + num(w.radius) +
                       "); give the radius of the disk's hole in m (0 = a full disk)");
         }
         break;
       case WallType::Cone:
-        w.center = t.vec3("center").value_or(w.center);
-        w.axis = direction(t, "axis", w.axis);
-        w.radius_bottom = t.required_number("radius_bottom", "the radius at bottom in m (>= 0)");
-        t.non_negative("radius_bottom", w.radius_bottom, "m");
-        w.radius_top = t.required_number("radius_top", "the radius at top in m (>= 0)");
-        t.non_negative("radius_top", w.radius_top, "m");
+        w.center = t.value<Vec3>("center");
+        w.axis = direction(t, "axis");
+        w.radius_bottom = t.required<double>("radius_bottom");
+        w.radius_top = t.required<double>("radius_top");
         t.check("radius_top", w.radius_bottom > 0.0 || w.radius_top > 0.0,
                 "both radii are 0; at least one of radius_bottom, radius_top must be > 0");
         read_extent(t, w);
@@ -117,7 +111,7 @@ void read_walls(const Table& root, CaseSpec& spec, Names& names) {
         break;
       case WallType::Mesh: {
         namespace fs = std::filesystem;
-        const std::string file = t.required_string("file", "the STL file, relative to the case file's folder");
+        const std::string file = t.required<std::string>("file");
         fs::path p(file);
         if (p.is_relative()) p = fs::path(t.folder("file")) / p;
         p = p.lexically_normal();
@@ -126,9 +120,8 @@ void read_walls(const Table& root, CaseSpec& spec, Names& names) {
           t.fail("file", "file not found: " + p.string() + "; give an STL file (a relative path resolves against "
                                                           "the case file's folder " + t.folder("file") + ")");
         w.file = p.string();
-        w.scale = t.number("scale", w.scale);
-        t.positive("scale", w.scale, "");
-        w.offset = t.vec3("offset").value_or(w.offset);
+        w.scale = t.value<double>("scale");
+        w.offset = t.value<Vec3>("offset");
         break;
       }
     }
@@ -142,26 +135,23 @@ void read_walls(const Table& root, CaseSpec& spec, Names& names) {
 namespace {
 
 RegionSpec read_region(const Table& ins, const DomainSpec& domain) {
-  const std::string how = "region = { type = \"box\", min = [...], max = [...] } or "
-                          "region = { type = \"cylinder\", center = [x, y], radius = r, zmin = z0, zmax = z1 }";
-  if (!ins.has("region")) ins.fail_missing("region", how);
-  const Table t = *ins.table("region");
+  if (!ins.has("region")) ins.fail_missing("region", std::string(ins.spec("region").doc));
+  const Table raw = *ins.table("region");
   RegionSpec r;
-  const std::string type = t.choice("type", "box", {"box", "cylinder"});
+  const std::string type = raw.choice(schema::kRegionType);  // before the keys, which depend on it
   if (type == "box") {
-    t.allow(keys::kBoxRegion, "a box region");
+    const Table t = raw.declared({schema::kBoxRegion}, "a box region");
     read_box(t, r.min, r.max, "the region");
   } else {
-    t.allow(keys::kCylinderRegion, "a cylinder region");
+    const Table t = raw.declared({schema::kCylinderRegion}, "a cylinder region");
     r.type = RegionType::Cylinder;
-    if (!t.has("center")) t.fail_missing("center", "the axis position [x, y] (m)");
+    if (!t.has("center")) t.fail_missing("center", std::string(t.spec("center").doc));
     const auto c = *t.numbers("center", 2);
     r.cx = c[0];
     r.cy = c[1];
-    r.radius = t.required_number("radius", "the radius in m (> 0)");
-    t.positive("radius", r.radius, "m");
-    const double zmin = t.required_number("zmin", "the lower end in m");
-    const double zmax = t.required_number("zmax", "the upper end in m");
+    r.radius = t.required<double>("radius");
+    const double zmin = t.required<double>("zmin");
+    const double zmax = t.required<double>("zmax");
     t.check("zmax", zmin < zmax, "zmin = " + num(zmin) + " is not below zmax = " + num(zmax) + "; need zmin < zmax");
     r.min = {r.cx - r.radius, r.cy - r.radius, zmin};
     r.max = {r.cx + r.radius, r.cy + r.radius, zmax};
@@ -171,19 +161,16 @@ RegionSpec read_region(const Table& ins, const DomainSpec& domain) {
 }
 
 RadiusSpec read_radius(const Table& ins) {
-  const std::string how = "radius = <m>, radius = { uniform = [min, max] } or "
-                          "radius = { values = [...], fractions = [...] }";
+  const std::string how(ins.spec("radius").doc);
   RadiusSpec r;
   const toml::node* n = ins.node("radius");
   if (!n) ins.fail_missing("radius", how);
   if (n->is_number()) {
-    r.value = *ins.number("radius");
-    ins.positive("radius", r.value, "m");
+    r.value = ins.required<double>("radius");
     return r;
   }
   if (!n->is_table()) ins.fail("radius", std::string("expected a number or a table, found ") + type_name(*n) + "; give " + how);
-  const Table t = *ins.table("radius");
-  t.allow(keys::kRadiusDistribution, "a radius distribution");
+  const Table t = ins.table("radius")->declared({schema::kRadiusDistribution}, "a radius distribution");
   const bool uniform = t.has("uniform"), values = t.has("values");
   if (uniform == values)
     t.fail_table(uniform ? "both uniform and values given; give one of them" : "neither uniform nor values given; give " + how);
@@ -202,7 +189,7 @@ RadiusSpec read_radius(const Table& ins) {
   r.values = *t.numbers("values");
   for (size_t i = 0; i < r.values.size(); ++i)
     t.check("values", r.values[i] > 0.0, "value " + num(r.values[i]) + " is not > 0; radii are positive (m)");
-  if (!t.has("fractions")) t.fail_missing("fractions", "the number fraction of each value, summing to 1");
+  if (!t.has("fractions")) t.fail_missing("fractions", std::string(t.spec("fractions").doc));
   r.fractions = *t.numbers("fractions", r.values.size());
   for (double f : r.fractions)
     t.check("fractions", f >= 0.0, "fraction " + num(f) + " is negative; fractions are >= 0");
@@ -230,8 +217,7 @@ void read_amount(const Table& t, double alpha, InsertionSpec& s) {
   const double scale = 1.0 / (alpha * alpha * alpha);
   at_most_one(t, {"count", "count_alpha1", "mass"}, true,
               "them: count (particles), count_alpha1 (particles at alpha = 1) or mass (kg)");
-  if (const auto count = t.integer("count")) {
-    t.check("count", *count >= 1, std::to_string(*count) + " is not >= 1; give the number of particles to insert");
+  if (const auto count = t.optional<int64_t>("count")) {
     s.count = *count;
   } else if (const auto count1 = t.integer("count_alpha1")) {
     t.check("count_alpha1", *count1 >= 1 && *count1 <= (int64_t{1} << 53),
@@ -241,19 +227,15 @@ void read_amount(const Table& t, double alpha, InsertionSpec& s) {
             fmt::format("{} particles at alpha = 1 are {:.3g} at alpha = {}, less than one; give count_alpha1 >= {:.0f}",
                         *count1, static_cast<double>(*count1) * scale, num(alpha), std::ceil(0.5 / scale)));
   } else {
-    s.mass = *t.number("mass");
-    t.positive("mass", s.mass, "kg");
+    s.mass = t.required<double>("mass");
   }
   at_most_one(t, {"rate", "rate_alpha1", "mass_rate"}, false,
               "them, or none: rate (particles/s), rate_alpha1 (particles/s at alpha = 1) or mass_rate (kg/s)");
-  if (const auto rate = t.number("rate")) {
-    t.positive("rate", *rate, "particles/s");
+  if (const auto rate = t.optional<double>("rate")) {
     s.rate = *rate;
-  } else if (const auto rate1 = t.number("rate_alpha1")) {
-    t.positive("rate_alpha1", *rate1, "particles/s at alpha = 1");
+  } else if (const auto rate1 = t.optional<double>("rate_alpha1")) {
     s.rate = *rate1 * scale;
-  } else if (const auto mass_rate = t.number("mass_rate")) {
-    t.positive("mass_rate", *mass_rate, "kg/s");
+  } else if (const auto mass_rate = t.optional<double>("mass_rate")) {
     s.mass_rate = *mass_rate;
   }
 }
@@ -264,12 +246,11 @@ void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
   const auto tables = array_of_tables(root, "insertion");
   UniqueNames insertions("insertion");
   for (size_t i = 0; i < tables.size(); ++i) {
-    const Table& t = tables[i];
-    t.allow(keys::kInsertion);
+    const Table t = tables[i].declared({schema::kInsertion});
     InsertionSpec s;
-    s.name = t.has("name") ? t.required_string("name", "the insertion's name") : "insertion" + std::to_string(i);
+    s.name = t.has("name") ? t.required<std::string>("name") : "insertion" + std::to_string(i);
     insertions.add(t, s.name);
-    s.material = t.required_string("material", "the name of a [[materials]] entry");
+    s.material = t.required<std::string>("material");
     check_reference(t, "material", s.material, names.materials, "material");
     s.region = read_region(t, spec.domain);
     s.radius = read_radius(t);
@@ -288,25 +269,16 @@ void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
 
     read_amount(t, alpha, s);
     const bool rate = s.rate > 0.0 || s.mass_rate > 0.0;
-    s.start = t.number("start", s.start);
-    t.non_negative("start", s.start, "s");
-    s.interval = t.number("interval", s.interval);
-    t.non_negative("interval", s.interval, "s (0 = automatic)");
-    s.velocity = t.vec3("velocity").value_or(s.velocity);
-    if (const auto gap = t.number("follow_gap")) {
-      t.non_negative("follow_gap", *gap, "m");
-      s.follow_gap = *gap;
-    }
-    if (const auto h = t.number("follow_height")) {
-      t.positive("follow_height", *h, "m");
+    s.start = t.value<double>("start");
+    s.interval = t.value<double>("interval");
+    s.velocity = t.value<Vec3>("velocity");
+    if (const auto gap = t.optional<double>("follow_gap")) s.follow_gap = *gap;
+    if (const auto h = t.optional<double>("follow_height")) {
       t.check("follow_height", s.follow_gap >= 0.0, "follow_height needs follow_gap (the slab follows the heap)");
       s.follow_height = *h;
     }
     if (!rate) check_batch_room(t, s, spec, alpha);
-    const int64_t attempts = t.integer("max_attempts").value_or(s.max_attempts);
-    t.check("max_attempts", attempts >= 1 && attempts <= 1'000'000'000,
-            std::to_string(attempts) + " is not a valid number of attempts; give an integer >= 1");
-    s.max_attempts = static_cast<int>(attempts);
+    s.max_attempts = static_cast<int>(t.value<int64_t>("max_attempts"));
     s.loc = t.loc();
     spec.insertions.push_back(s);
   }
@@ -315,14 +287,14 @@ void read_insertions(const Table& root, CaseSpec& spec, Names& names) {
 // ---- [[events]] -------------------------------------------------------------
 
 void read_events(const Table& root, CaseSpec& spec, Names& names) {
-  for (const Table& t : array_of_tables(root, "events")) {
-    t.allow(keys::kEvent);
+  for (const Table& raw : array_of_tables(root, "events")) {
+    const Table t = raw.declared({schema::kEvent});
     EventSpec e;
-    e.name = t.required_string("name", "the event's name, e.g. name = \"open\"");
+    e.name = t.required<std::string>("name");
     names.events.add(t, e.name);
-    const auto at = t.number("at");
-    e.after_insertion = t.boolean("after_insertion").value_or(false);
-    const auto speed = t.number("mean_speed_below");
+    const auto at = t.optional<double>("at");
+    e.after_insertion = t.value<bool>("after_insertion");
+    const auto speed = t.optional<double>("mean_speed_below");
     const bool condition = e.after_insertion || speed.has_value();
     if (!at && !condition)
       t.fail_table("neither at nor a condition given; give at = <s>, or after_insertion = true and/or "
@@ -333,19 +305,11 @@ void read_events(const Table& root, CaseSpec& spec, Names& names) {
       t.fail(speed ? "mean_speed_below" : "after_insertion",
              "a condition would fire at a different time on each level of a multi-level case; give at = <s> "
              "(e.g. the time the condition fired in a single-level run)");
-    if (at) {
-      t.non_negative("at", *at, "s");
-      e.at = *at;
-    }
-    if (speed) {
-      t.positive("mean_speed_below", *speed, "m/s");
-      e.mean_speed_below = *speed;
-    }
-    e.check_interval = t.number("check_interval", e.check_interval);
-    t.positive("check_interval", e.check_interval, "s");
-    if (const auto latest = t.number("latest", true)) {
+    if (at) e.at = *at;
+    if (speed) e.mean_speed_below = *speed;
+    e.check_interval = t.value<double>("check_interval");
+    if (const auto latest = t.optional<double>("latest")) {
       t.check("latest", condition, "latest only applies to a condition, not to at; remove it");
-      t.non_negative("latest", *latest, "s");
       e.latest = *latest;
     }
     if (t.has("remove_walls")) {
@@ -360,18 +324,16 @@ void read_events(const Table& root, CaseSpec& spec, Names& names) {
 // ---- [[probes]] -------------------------------------------------------------
 
 void read_probes(const Table& root, CaseSpec& spec, Names& names) {
-  for (const Table& t : array_of_tables(root, "probes")) {
-    t.allow(keys::kProbe);
+  for (const Table& raw : array_of_tables(root, "probes")) {
+    const Table t = raw.declared({schema::kProbe});
     ProbeSpec p;
-    p.name = t.required_string("name", "the probe's name, e.g. name = \"orifice\"");
+    p.name = t.required<std::string>("name");
     names.probes.add(t, p.name);
-    p.point = t.required_vec3("point", "the centre of the probe disk (m), inside the domain");
+    p.point = t.required<Vec3>("point");
     check_inside_domain(t, "point", "point", p.point, p.point, spec.domain);
-    p.normal = direction(t, "normal", p.normal);
-    p.radius = t.required_number("radius", "the probe disk's radius in m (> 0)");
-    t.positive("radius", p.radius, "m");
-    p.sample_rate = t.number("sample_rate", p.sample_rate);
-    t.positive("sample_rate", p.sample_rate, "Hz");
+    p.normal = direction(t, "normal");
+    p.radius = t.required<double>("radius");
+    p.sample_rate = t.value<double>("sample_rate");
     if (const auto w = t.numbers("window", 2, true)) {
       p.window_start = (*w)[0];
       p.window_end = (*w)[1];
@@ -381,7 +343,7 @@ void read_probes(const Table& root, CaseSpec& spec, Names& names) {
               "start " + num(p.window_start) + " is not before end " + num(p.window_end) +
                   "; give window = [t0, t1] with 0 <= t0 < t1 (s)");
     }
-    if (const auto ev = t.string("window_relative_to")) {
+    if (const auto ev = t.optional<std::string>("window_relative_to")) {
       p.window_event = *ev;
       check_reference(t, "window_relative_to", p.window_event, names.events, "event");
     }
@@ -393,25 +355,22 @@ void read_probes(const Table& root, CaseSpec& spec, Names& names) {
 // ---- [[grids]] --------------------------------------------------------------
 
 void read_grids(const Table& root, CaseSpec& spec, Names& names) {
-  for (const Table& t : array_of_tables(root, "grids")) {
-    t.allow(keys::kGrid);
+  for (const Table& raw : array_of_tables(root, "grids")) {
+    const Table t = raw.declared({schema::kGrid});
     GridSpec g;
-    g.name = t.required_string("name", "the grid's name, e.g. name = \"bed\"");
+    g.name = t.required<std::string>("name");
     names.grids.add(t, g.name);
     read_box(t, g.min, g.max, "the grid box");
     check_inside_domain(t, "min", "max", g.min, g.max, spec.domain);
-    g.cell_size = t.required_number("cell_size", "the cubic cell's edge in m (> 0)");
-    t.positive("cell_size", g.cell_size, "m");
+    g.cell_size = t.required<double>("cell_size");
     for (int a = 0; a < 3; ++a) {
       const double extent = g.max[a] - g.min[a];
       t.check("cell_size", g.cell_size <= extent,
               num(g.cell_size) + " is larger than the box (" + num(extent) + " in " + kAxis[a] +
                   "); give a cell_size no larger than the box's smallest extent");
     }
-    g.output_interval = t.required_number("output_interval", "how often averages are written, in s (> 0)");
-    t.positive("output_interval", g.output_interval, "s");
-    g.sample_interval = t.number("sample_interval", g.sample_interval);
-    t.non_negative("sample_interval", g.sample_interval, "s (0 = every output_interval)");
+    g.output_interval = t.required<double>("output_interval");
+    g.sample_interval = t.value<double>("sample_interval");
     t.check("sample_interval", g.sample_interval <= g.output_interval,
             num(g.sample_interval) + " is longer than output_interval = " + num(g.output_interval) +
                 "; sample at least once per output interval");
@@ -426,17 +385,16 @@ namespace mlcg::config::detail {
 
 // ---- [[particles]] -----------------------------------------------------------
 void read_particles(const Table& root, CaseSpec& spec, Names& names) {
-  for (const Table& t : array_of_tables(root, "particles")) {
-    t.allow(keys::kParticle, "a particle");
+  for (const Table& raw : array_of_tables(root, "particles")) {
+    const Table t = raw.declared({schema::kParticle}, "a particle");
     ParticleSpec p;
-    p.material = t.required_string("material", "the name of a [[materials]] entry");
+    p.material = t.required<std::string>("material");
     check_reference(t, "material", p.material, names.materials, "material");
-    p.radius = t.required_number("radius", "the particle radius in m (> 0)");
-    t.positive("radius", p.radius, "m");
-    p.position = t.required_vec3("position", "the particle centre [x, y, z] in m, inside the domain");
+    p.radius = t.required<double>("radius");
+    p.position = t.required<Vec3>("position");
     check_inside_domain(t, "position", "position", p.position, p.position, spec.domain);
-    p.velocity = t.vec3("velocity").value_or(Vec3{});
-    p.omega = t.vec3("omega").value_or(Vec3{});
+    p.velocity = t.value<Vec3>("velocity");
+    p.omega = t.value<Vec3>("omega");
     p.loc = t.loc();
     spec.particles.push_back(p);
   }
@@ -448,17 +406,16 @@ namespace mlcg::config::detail {
 
 // ---- [initial] -----------------------------------------------------------------
 void read_initial(const Table& root, CaseSpec& spec, Names& names) {
-  const auto t = root.table("initial");
-  if (!t) return;
-  t->allow(keys::kInitial, "[initial]");
+  if (!root.has("initial")) return;
+  const Table t = root.table("initial")->declared({schema::kInitial}, "[initial]");
   InitialSpec in;
-  const std::string file = t->required_string("file", "an HDF5 particle snapshot (e.g. a run's particles/particles_000010.h5)");
-  const std::filesystem::path path = std::filesystem::path(t->folder("file")) / file;
-  t->check("file", std::filesystem::is_regular_file(path), "'" + path.string() + "' does not exist or is not a file");
+  const std::string file = t.required<std::string>("file");
+  const std::filesystem::path path = std::filesystem::path(t.folder("file")) / file;
+  t.check("file", std::filesystem::is_regular_file(path), "'" + path.string() + "' does not exist or is not a file");
   in.file = path.string();
-  in.material = t->required_string("material", "the name of a [[materials]] entry");
-  check_reference(*t, "material", in.material, names.materials, "material");
-  in.loc = t->loc();
+  in.material = t.required<std::string>("material");
+  check_reference(t, "material", in.material, names.materials, "material");
+  in.loc = t.loc();
   spec.initial = in;
 }
 
@@ -466,27 +423,24 @@ void read_initial(const Table& root, CaseSpec& spec, Names& names) {
 // The scene's outlet, where the walls cannot say it (a slot under a lid, an STL floor):
 // a circle (`diameter`) or a slot (`width` x `length`). Checks and scripts read it.
 void read_orifice(const Table& root, CaseSpec& spec) {
-  const auto t = root.table("orifice");
-  if (!t) return;
-  t->allow(keys::kOrifice, "[orifice]");
+  if (!root.has("orifice")) return;
+  const Table t = root.table("orifice")->declared({schema::kOrifice}, "[orifice]");
   OrificeSpec o;
-  o.center = t->required_vec3("center", "the centre of the orifice [m], e.g. center = [0, 0, 0]");
-  check_inside_domain(*t, "center", "center", o.center, o.center, spec.domain);
-  const bool circle = t->has("diameter"), slot = t->has("width") || t->has("length");
+  o.center = t.required<Vec3>("center");
+  check_inside_domain(t, "center", "center", o.center, o.center, spec.domain);
+  const bool circle = t.has("diameter"), slot = t.has("width") || t.has("length");
   if (circle == slot)
-    t->fail_table(circle ? "give either diameter (a circular orifice) or width and length (a slot), not both"
-                         : "give diameter = D (a circular orifice) or width = W and length = L (a slot) [m]");
+    t.fail_table(circle ? "give either diameter (a circular orifice) or width and length (a slot), not both"
+                        : "give diameter = D (a circular orifice) or width = W and length = L (a slot) [m]");
   if (circle) {
-    o.diameter = t->number("diameter", 0.0);
-    t->positive("diameter", o.diameter, "m");
+    o.diameter = t.required<double>("diameter");
   } else {
-    o.width = t->required_number("width", "the slot's width in m (its narrow side)");
-    t->positive("width", o.width, "m");
-    o.length = t->required_number("length", "the slot's length in m");
-    t->check("length", o.length >= o.width,
+    o.width = t.required<double>("width");
+    o.length = t.required<double>("length");
+    t.check("length", o.length >= o.width,
              num(o.length) + " is shorter than width = " + num(o.width) + "; width is the slot's narrow side");
   }
-  o.loc = t->loc();
+  o.loc = t.loc();
   spec.orifice = o;
 }
 
