@@ -15,6 +15,7 @@
 #include <cmath>
 #include <vector>
 
+#include "contact/inline.hpp"
 #include "contact/model.hpp"
 #include "core/material.hpp"
 #include "core/particles.hpp"
@@ -118,147 +119,192 @@ void block_contact_forces(ContactBlock& b, int32_t n, const PairCoeffs* coeffs, 
                                    b.m.z.data(), b.delta.data());
 }
 
+// The arrays the pair kernel reads and writes, taken once per call.
+struct PairArrays {
+  const Vec3* x;
+  const Vec3* v;
+  const Vec3* w;
+  const double* rad;
+  const double* mass;
+  const int32_t* mat;
+  Vec3* f;
+  Vec3* t;
+  const int32_t* first;  // the list's offsets
+  const int32_t* neigh;
+  Vec3* hist;            // null without history
+  int nmat;
+  bool uniform;   // one coefficient set for every pair (cix is not written)
+  bool prefetch;  // start the partner's loads early (large levels)
+};
+
+// Below this many particles (ghosts included) the arrays stay in the caches, where prefetching
+// costs more than it saves: measured 7 % slower at 30,000, 8 % faster at 270,000 and 13 % at 1,080,000.
 inline constexpr size_t kPrefetchAbove = 150000;
 
-// stress6: 6 values per particle (only read when Stress), branch r_ij/2 per Eq. 8.
+namespace pair_detail {
+
+// 1a. The touching pairs of particles [i0, i1), as (i, k) in list order; returns their count.
+// Branch-free: whether a listed pair touches is unpredictable, so every pair is written to the next
+// slot and the slot only advances if it touches. A listed pair that does not touch costs one test.
+template <class Model>
+MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t i0, size_t i1, ContactBlock& b) {
+  const Vec3* __restrict x = a.x;
+  const double* __restrict rad = a.rad;
+  const int32_t* __restrict neigh = a.neigh;
+  int32_t nc = 0;
+  for (size_t i = i0; i < i1; ++i) {
+    const Vec3 xi = x[i];
+    const double ri = rad[i];
+    for (int32_t k = a.first[i], end = a.first[i + 1]; k < end; ++k) {
+      const auto j = static_cast<size_t>(neigh[k]);
+      // The gather and the scatter read and write the partner's other arrays in a moment:
+      // start those loads now when they come from memory.
+      if (a.prefetch) {
+        __builtin_prefetch(&a.v[j]);
+        __builtin_prefetch(&a.w[j]);
+        __builtin_prefetch(&a.mass[j]);
+        __builtin_prefetch(&a.f[j], 1);
+        __builtin_prefetch(&a.t[j], 1);
+      }
+      const double radsum = ri + rad[j];
+      const bool touch = norm2(xi - x[j]) < radsum * radsum;
+      const auto c = static_cast<size_t>(nc);
+      b.i[c] = static_cast<int32_t>(i);
+      b.k[c] = k;
+      nc += touch ? 1 : 0;
+    }
+  }
+  return nc;
+}
+
+// 1b. What the contact law needs, for the nc touching pairs found.
+template <class Model>
+MLCG_INLINE void gather_touching(const PairArrays& a, int32_t nc, ContactBlock& b) {
+  const Vec3* __restrict x = a.x;
+  const Vec3* __restrict v = a.v;
+  const Vec3* __restrict w = a.w;
+  const double* __restrict rad = a.rad;
+  const double* __restrict mass = a.mass;
+  const int32_t* __restrict neigh = a.neigh;
+  for (int32_t q = 0; q < nc; ++q) {
+    const auto c = static_cast<size_t>(q);
+    const auto i = static_cast<size_t>(b.i[c]);
+    const auto j = static_cast<size_t>(neigh[b.k[c]]);
+    b.j[c] = static_cast<int32_t>(j);
+    const Vec3 d = x[i] - x[j];
+    const double ri = rad[i], rj = rad[j];
+    if (!a.uniform) b.cix[c] = a.mat[i] * a.nmat + a.mat[j];  // one material: the law never reads it
+    b.d.x[c] = d.x;
+    b.d.y[c] = d.y;
+    b.d.z[c] = d.z;
+    b.ri[c] = ri;
+    b.rj[c] = rj;
+    b.mi[c] = mass[i];
+    b.mj[c] = mass[j];
+    const Vec3 dv = v[i] - v[j];
+    const Vec3 ws = ri * w[i] + rj * w[j];
+    b.dv.x[c] = dv.x;
+    b.dv.y[c] = dv.y;
+    b.dv.z[c] = dv.z;
+    b.ws.x[c] = ws.x;
+    b.ws.y[c] = ws.y;
+    b.ws.z[c] = ws.z;
+    if constexpr (Model::has_rolling) {
+      const Vec3 wr = w[i] - w[j];
+      b.wr.x[c] = wr.x;
+      b.wr.y[c] = wr.y;
+      b.wr.z[c] = wr.z;
+    }
+    if constexpr (Model::has_history) {
+      const Vec3 h = a.hist[b.k[c]];
+      b.h.x[c] = h.x;
+      b.h.y[c] = h.y;
+      b.h.z[c] = h.z;
+    }
+  }
+}
+
+// The block's history is in the buffers after the gather: it is cleared in the list, and the scatter
+// writes it back for the touching pairs, so the others are reset. Then the next block's history, a
+// stream the law's time hides, is prefetched.
+template <class Model>
+MLCG_INLINE void reset_history(const PairArrays& a, size_t i1, size_t i2, int32_t k0) {
+  if constexpr (Model::has_history) {
+    std::fill(a.hist + k0, a.hist + a.first[i1], Vec3{});
+    if (a.prefetch) {
+      const char* h0 = reinterpret_cast<const char*>(a.hist + a.first[i1]);
+      const char* h1 = reinterpret_cast<const char*>(a.hist + a.first[i2]);
+      for (const char* c = h0; c < h1; c += 64) __builtin_prefetch(c, 1);
+    }
+  }
+}
+
+// 3. Forces, torques and history back to the particles and the list; the largest overlap and, with
+// Stress, the stress contributions (branch r_ij/2 per Eq. 8) on the way.
+template <class Model, bool Stress>
+MLCG_INLINE void scatter_block(const PairArrays& a, int32_t nc, const ContactBlock& b, double* stress6,
+                               double& worst, int32_t& worst_i) {
+  Vec3* __restrict f = a.f;
+  Vec3* __restrict t = a.t;
+  for (int32_t q = 0; q < nc; ++q) {
+    const auto c = static_cast<size_t>(q);
+    const auto i = static_cast<size_t>(b.i[c]);
+    const auto j = static_cast<size_t>(b.j[c]);
+    const Vec3 force{b.f.x[c], b.f.y[c], b.f.z[c]};
+    const Vec3 tor{b.t.x[c], b.t.y[c], b.t.z[c]};
+    f[i] += force;
+    f[j] -= force;
+    t[i] -= b.ri[c] * tor;
+    t[j] -= b.rj[c] * tor;
+    if constexpr (Model::has_rolling) {
+      const Vec3 roll{b.m.x[c], b.m.y[c], b.m.z[c]};
+      t[i] += roll;
+      t[j] -= roll;
+    }
+    if constexpr (Model::has_history) a.hist[b.k[c]] = {b.h.x[c], b.h.y[c], b.h.z[c]};
+    const double rmin = std::min(b.ri[c], b.rj[c]);
+    if (b.delta[c] > worst * rmin) {  // divide only for a new largest overlap
+      worst = b.delta[c] / rmin;
+      worst_i = static_cast<int32_t>(i);
+    }
+    if constexpr (Stress) {
+      const Vec3 half{0.5 * b.d.x[c], 0.5 * b.d.y[c], 0.5 * b.d.z[c]};
+      add_dyad(stress6 + 6 * i, half, force);
+      add_dyad(stress6 + 6 * j, half, force);  // (-d/2) x (-F)
+    }
+  }
+}
+
+}  // namespace pair_detail
+
+// stress6: 6 values per particle (only read when Stress).
 template <class Model, bool Stress>
 void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double dt, double* stress6,
                  ContactStats& st) {
   constexpr size_t kBlock = 32;  // particles per block
   const size_t n = p.n_local();
-  const Vec3* __restrict x = p.x.data();
-  const Vec3* __restrict v = p.v.data();
-  const Vec3* __restrict w = p.omega.data();
-  const double* __restrict rad = p.radius.data();
-  const double* __restrict mass = p.mass.data();
-  const int32_t* __restrict mat = p.material.data();
-  Vec3* __restrict f = p.f.data();
-  Vec3* __restrict t = p.torque.data();
-  const int32_t* __restrict neigh = nl.neigh.data();
-  Vec3* __restrict hist = Model::has_history ? nl.hist.data() : nullptr;
   const int nmat = mt.size();
   // One material among the particles (walls may have others): its coefficients are a loop invariant.
   const int32_t single = nl.single_material();
   const PairCoeffs* coeffs = mt.pairs().data() + (single >= 0 ? single * nmat + single : 0);
-  const bool uniform = nmat == 1 || single >= 0;
+  const PairArrays a{p.x.data(),     p.v.data(),      p.omega.data(), p.radius.data(),
+                     p.mass.data(),  p.material.data(), p.f.data(),   p.torque.data(),
+                     nl.first.data(), nl.neigh.data(), Model::has_history ? nl.hist.data() : nullptr,
+                     nmat,           nmat == 1 || single >= 0,        p.size() > kPrefetchAbove};
   ContactBlock& b = scratch_contacts();
-  // Below this many particles (ghosts included) the arrays stay in the caches, where prefetching
-  // costs more than it saves: measured 7 % slower at 30,000, 8 % faster at 270,000 and 13 % at 1,080,000.
-  const bool prefetch = p.size() > kPrefetchAbove;
-
   double worst = st.max_overlap_ratio;
   int32_t worst_i = st.worst_particle;
   int64_t contacts = 0;
-
   for (size_t i0 = 0; i0 < n; i0 += kBlock) {
-    const size_t i1 = std::min(n, i0 + kBlock);
+    const size_t i1 = std::min(n, i0 + kBlock), i2 = std::min(n, i1 + kBlock);
     b.reserve(static_cast<size_t>(nl.first[i1] - nl.first[i0]));
-    // 1a. Find the touching pairs of the block. Branch-free: whether a listed
-    // pair touches is unpredictable, so every pair is written to the next slot
-    // and the slot only advances if it touches. Only indices are written here,
-    // so a listed pair that does not touch costs one distance test.
-    int32_t nc = 0;
-    for (size_t i = i0; i < i1; ++i) {
-      const Vec3 xi = x[i];
-      const double ri = rad[i];
-      for (int32_t k = nl.first[i], end = nl.first[i + 1]; k < end; ++k) {
-        const auto j = static_cast<size_t>(neigh[k]);
-        // The gather and the scatter read and write the partner's other arrays in a moment:
-        // start those loads now when they come from memory.
-        if (prefetch) {
-          __builtin_prefetch(&v[j]);
-          __builtin_prefetch(&w[j]);
-          __builtin_prefetch(&mass[j]);
-          __builtin_prefetch(&f[j], 1);
-          __builtin_prefetch(&t[j], 1);
-        }
-        const double radsum = ri + rad[j];
-        const bool touch = norm2(xi - x[j]) < radsum * radsum;
-        const auto c = static_cast<size_t>(nc);
-        b.i[c] = static_cast<int32_t>(i);
-        b.k[c] = k;
-        nc += touch ? 1 : 0;
-      }
-    }
-    // 1b. Gather what the contact law needs, for the touching pairs only.
-    for (int32_t q = 0; q < nc; ++q) {
-      const auto c = static_cast<size_t>(q);
-      const auto i = static_cast<size_t>(b.i[c]);
-      const auto j = static_cast<size_t>(neigh[b.k[c]]);
-      b.j[c] = static_cast<int32_t>(j);
-      const Vec3 d = x[i] - x[j];
-      const double ri = rad[i], rj = rad[j];
-      if (!uniform) b.cix[c] = mat[i] * nmat + mat[j];  // one material: the law never reads it
-      b.d.x[c] = d.x;
-      b.d.y[c] = d.y;
-      b.d.z[c] = d.z;
-      b.ri[c] = ri;
-      b.rj[c] = rj;
-      b.mi[c] = mass[i];
-      b.mj[c] = mass[j];
-      const Vec3 dv = v[i] - v[j];
-      const Vec3 ws = ri * w[i] + rj * w[j];
-      b.dv.x[c] = dv.x;
-      b.dv.y[c] = dv.y;
-      b.dv.z[c] = dv.z;
-      b.ws.x[c] = ws.x;
-      b.ws.y[c] = ws.y;
-      b.ws.z[c] = ws.z;
-      if constexpr (Model::has_rolling) {
-        const Vec3 wr = w[i] - w[j];
-        b.wr.x[c] = wr.x;
-        b.wr.y[c] = wr.y;
-        b.wr.z[c] = wr.z;
-      }
-      if constexpr (Model::has_history) {
-        const Vec3 h = hist[b.k[c]];
-        b.h.x[c] = h.x;
-        b.h.y[c] = h.y;
-        b.h.z[c] = h.z;
-      }
-    }
-    // The block's history is now in the buffers: clear it in the list, the
-    // scatter writes it back for the touching pairs, so the others are reset.
-    if constexpr (Model::has_history)
-      std::fill(hist + nl.first[i0], hist + nl.first[i1], Vec3{});
-    // The next block's history, a stream the law's time hides.
-    if (Model::has_history && prefetch) {
-      const size_t i2 = std::min(n, i1 + kBlock);
-      const char* h0 = reinterpret_cast<const char*>(hist + nl.first[i1]);
-      const char* h1 = reinterpret_cast<const char*>(hist + nl.first[i2]);
-      for (const char* a = h0; a < h1; a += 64) __builtin_prefetch(a, 1);
-    }
+    const int32_t nc = pair_detail::find_touching<Model>(a, i0, i1, b);
+    pair_detail::gather_touching<Model>(a, nc, b);
+    pair_detail::reset_history<Model>(a, i1, i2, nl.first[i0]);
     // 2. The contact law, vectorized.
-    if (uniform) block_contact_forces<Model, true>(b, nc, coeffs, dt);
+    if (a.uniform) block_contact_forces<Model, true>(b, nc, coeffs, dt);
     else block_contact_forces<Model, false>(b, nc, coeffs, dt);
-    // 3. Scatter forces, torques and history.
-    for (int32_t q = 0; q < nc; ++q) {
-      const auto c = static_cast<size_t>(q);
-      const auto i = static_cast<size_t>(b.i[c]);
-      const auto j = static_cast<size_t>(b.j[c]);
-      const Vec3 force{b.f.x[c], b.f.y[c], b.f.z[c]};
-      const Vec3 tor{b.t.x[c], b.t.y[c], b.t.z[c]};
-      f[i] += force;
-      f[j] -= force;
-      t[i] -= b.ri[c] * tor;
-      t[j] -= b.rj[c] * tor;
-      if constexpr (Model::has_rolling) {
-        const Vec3 roll{b.m.x[c], b.m.y[c], b.m.z[c]};
-        t[i] += roll;
-        t[j] -= roll;
-      }
-      if constexpr (Model::has_history) hist[b.k[c]] = {b.h.x[c], b.h.y[c], b.h.z[c]};
-      const double rmin = std::min(b.ri[c], b.rj[c]);
-      if (b.delta[c] > worst * rmin) {  // divide only for a new largest overlap
-        worst = b.delta[c] / rmin;
-        worst_i = static_cast<int32_t>(i);
-      }
-      if constexpr (Stress) {
-        const Vec3 half{0.5 * b.d.x[c], 0.5 * b.d.y[c], 0.5 * b.d.z[c]};
-        add_dyad(stress6 + 6 * i, half, force);
-        add_dyad(stress6 + 6 * j, half, force);  // (-d/2) x (-F)
-      }
-    }
+    pair_detail::scatter_block<Model, Stress>(a, nc, b, stress6, worst, worst_i);
     contacts += nc;
   }
   st.max_overlap_ratio = worst;

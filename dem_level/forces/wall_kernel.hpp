@@ -44,6 +44,31 @@ inline void wall_contact(size_t i, const Particles& p, const Vec3& point, const 
   if constexpr (Stress) add_dyad(stress6 + 6 * i, p.x[i] - point, cf.force);
 }
 
+// A mesh contact keeps its overlap in its owner's slot (of the particle's `slots` candidate triangles of
+// that mesh, from `hist` on); a contact whose owner slot is empty inherits a slot that lost its contact
+// (the particle moved on to a neighbouring triangle or feature); slots without a contact are cleared.
+template <int kMaxContacts>
+inline void hand_over_mesh_history(Vec3* hist, int slots, const TriangleMesh::Contact* mc, int nc) {
+  bool owner[kMaxContacts * 4] = {};
+  const int span = std::min<int>(slots, kMaxContacts * 4);
+  for (int c = 0; c < nc; ++c)
+    if (mc[c].owner < span) owner[mc[c].owner] = true;
+  for (int c = 0; c < nc; ++c) {
+    Vec3& slot = hist[mc[c].owner];
+    if (!(slot == Vec3{})) continue;
+    for (int s = 0; s < span; ++s) {
+      Vec3& other = hist[s];
+      if (!owner[s] && !(other == Vec3{})) {
+        slot = other;
+        other = Vec3{};
+        break;
+      }
+    }
+  }
+  for (int s = 0; s < slots; ++s)
+    if (s >= span || !owner[s]) hist[s] = Vec3{};
+}
+
 }  // namespace detail
 
 // wall_force: one entry per wall, receives the total force the particles exert on it.
@@ -93,29 +118,7 @@ void wall_forces(Particles& p, WallSet& ws, const MaterialTable& mt, double dt, 
       const int nc = info.active ? ws.mesh(info.mesh).contacts(xi, ri, tris.data(), static_cast<int>(tris.size()),
                                                                mc, kMaxMeshContacts)
                                  : 0;
-      if constexpr (Model::has_history) {
-        // Keep each contact's overlap in its owner's slot; a contact whose owner
-        // slot is empty inherits a slot that lost its contact (the particle moved
-        // on to a neighbouring triangle or feature).
-        bool owner[kMaxMeshContacts * 4] = {};
-        const int span = std::min<int>(stop - k, kMaxMeshContacts * 4);
-        for (int c = 0; c < nc; ++c)
-          if (mc[c].owner < span) owner[mc[c].owner] = true;
-        for (int c = 0; c < nc; ++c) {
-          Vec3& slot = ws.hist[static_cast<size_t>(k + mc[c].owner)];
-          if (!(slot == Vec3{})) continue;
-          for (int s = 0; s < span; ++s) {
-            Vec3& other = ws.hist[static_cast<size_t>(k + s)];
-            if (!owner[s] && !(other == Vec3{})) {
-              slot = other;
-              other = Vec3{};
-              break;
-            }
-          }
-        }
-        for (int s = 0; s < stop - k; ++s)
-          if (s >= span || !owner[s]) ws.hist[static_cast<size_t>(k + s)] = Vec3{};
-      }
+      if constexpr (Model::has_history) detail::hand_over_mesh_history<kMaxMeshContacts>(ws.hist.data() + k, stop - k, mc, nc);
       const PairCoeffs& c = mt.pair(mi, info.material);
       for (int q = 0; q < nc; ++q) {
         Vec3& hq = Model::has_history ? ws.hist[static_cast<size_t>(k + mc[q].owner)] : dummy;
