@@ -137,9 +137,10 @@ struct PairArrays {
   bool prefetch;  // start the partner's loads early (large levels)
 };
 
-// Below this many particles (ghosts included) the arrays stay in the caches, where prefetching
-// costs more than it saves: measured 7 % slower at 30,000, 8 % faster at 270,000 and 13 % at 1,080,000.
-inline constexpr size_t kPrefetchAbove = 150000;
+// Below this many particles on a rank (ghosts included) the arrays stay in the caches, where
+// prefetching costs more than it saves. Force time with / without, 2026-12-03: 30,000 +7 %,
+// 60,000 +4 %, 135,000 (a 270,000 bed on 2 ranks) -5 to -10 %, 270,000 -8 %, 1,080,000 -13 %.
+inline constexpr size_t kPrefetchAbove = 100000;
 
 namespace pair_detail {
 
