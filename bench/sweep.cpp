@@ -128,46 +128,48 @@ struct Size {
   fs::path bed_h5;
 };
 
-// One size on one rank count, `repeat` times: the median per-core rate (NaN when it failed).
-double measure(const BenchParams& p, const SweepOptions& o, const Size& z, int ranks, const fs::path& dir,
-               std::string& note) {
-  const fs::path case_file = dir / fmt::format("n{}_r{}.toml", z.particles, ranks);
-  write_text(case_file, measured_case(p, z.layout, ranks, z.steps, z.bed_h5));
+// What the runs of one size on one rank count gave so far.
+struct Runs {
   std::vector<double> rates, bytes, busy;
-  for (int rep = 1; rep <= o.repeat; ++rep) {
-    const fs::path run = dir / fmt::format("n{}_r{}_{}", z.particles, ranks, rep);
-    fs::remove_all(run);
-    fs::create_directories(run);
-    std::vector<std::string> cmd;
-    if (ranks > 1) cmd = mpirun_prefix(o.mpirun, ranks);
-    for (const auto& a : {o.dem_level.string(), case_file.string(), std::string("--out"), run.string(),
-                          std::string("--quiet")})
-      cmd.push_back(a);
-    std::fputs(fmt::format("sweep: {} particles, {} rank(s), {} steps, repeat {}/{} ... ", z.particles, ranks,
-                           z.steps, rep, o.repeat)
-                   .c_str(),
-               stdout);
-    std::fflush(stdout);
-    const auto r = run_process(cmd, run, run / "console.txt");
-    const RunMetrics m = parse_mlcg(run, run / "console.txt", r.exit_code);
-    if (!m.ok) {
-      say("unavailable: " + m.error);
-      note = m.error;
-      return std::nan("");
-    }
-    if (m.particles != z.particles) {
-      note = fmt::format("started with {} particles, not {}", m.particles, z.particles);
-      say(note);
-      return std::nan("");
-    }
-    rates.push_back(m.rate / ranks);
-    bytes.push_back(m.bytes_per_particle);
-    busy.push_back(r.background_cores());
-    say(fmt::format("{:.1f} s, {:.3g} particle-steps/s per core; other processes kept {:.2f} core(s) busy",
-                    m.loop_seconds, m.rate / ranks, r.background_cores()));
+  std::string error;  // set when a run failed; the size then has no rate
+};
+
+// One run of one size on one rank count (repeat `rep`), added to `out`.
+void measure_once(const BenchParams& p, const SweepOptions& o, const Size& z, int ranks, int rep,
+                  const fs::path& dir, Runs& out) {
+  if (!out.error.empty()) return;
+  const fs::path case_file = dir / fmt::format("n{}_r{}.toml", z.particles, ranks);
+  if (rep == 1) write_text(case_file, measured_case(p, z.layout, ranks, z.steps, z.bed_h5));
+  const fs::path run = dir / fmt::format("n{}_r{}_{}", z.particles, ranks, rep);
+  fs::remove_all(run);
+  fs::create_directories(run);
+  std::vector<std::string> cmd;
+  if (ranks > 1) cmd = mpirun_prefix(o.mpirun, ranks);
+  for (const auto& a : {o.dem_level.string(), case_file.string(), std::string("--out"), run.string(),
+                        std::string("--quiet")})
+    cmd.push_back(a);
+  std::fputs(fmt::format("sweep: {} particles, {} rank(s), {} steps, repeat {}/{} ... ", z.particles, ranks, z.steps,
+                         rep, o.repeat)
+                 .c_str(),
+             stdout);
+  std::fflush(stdout);
+  const auto r = run_process(cmd, run, run / "console.txt");
+  const RunMetrics m = parse_mlcg(run, run / "console.txt", r.exit_code);
+  if (!m.ok) {
+    out.error = m.error;
+    say("unavailable: " + m.error);
+    return;
   }
-  note = fmt::format("{:.0f} bytes/p, busy {:.2f}", median(bytes), median(busy));
-  return median(rates);
+  if (m.particles != z.particles) {
+    out.error = fmt::format("started with {} particles, not {}", m.particles, z.particles);
+    say(out.error);
+    return;
+  }
+  out.rates.push_back(m.rate / ranks);
+  out.bytes.push_back(m.bytes_per_particle);
+  out.busy.push_back(r.background_cores());
+  say(fmt::format("{:.1f} s, {:.3g} particle-steps/s per core; other processes kept {:.2f} core(s) busy",
+                  m.loop_seconds, m.rate / ranks, r.background_cores()));
 }
 
 }  // namespace
@@ -192,13 +194,20 @@ SweepRates run_sweep(const BenchParams& p, const SweepOptions& o) {
   }
   std::sort(sizes.begin(), sizes.end(), [](const Size& a, const Size& b) { return a.particles < b.particles; });
 
+  // Repeats in rounds over every size and rank count: the VM's speed drifts over minutes, and a drift
+  // then slows every size alike instead of one size's runs only, which would bend the scaling ratio.
+  std::map<std::pair<long, int>, Runs> runs;
+  for (int rep = 1; rep <= o.repeat; ++rep)
+    for (const Size& z : sizes)
+      for (int r : o.ranks)
+        if (r == 1 || !o.mpirun.empty()) measure_once(p, o, z, r, rep, dir / "runs", runs[{z.particles, r}]);
   SweepRates rates;
   std::map<std::pair<long, int>, std::string> notes;
-  for (const Size& z : sizes)
-    for (int r : o.ranks) {
-      if (r > 1 && o.mpirun.empty()) continue;
-      rates[r][z.particles] = measure(p, o, z, r, dir / "runs", notes[{z.particles, r}]);
-    }
+  for (const auto& [key, got] : runs) {
+    notes[key] = got.error.empty() ? fmt::format("{:.0f} bytes/p, busy {:.2f}", median(got.bytes), median(got.busy))
+                                   : got.error;
+    rates[key.second][key.first] = got.error.empty() ? median(got.rates) : std::nan("");
+  }
 
   say("");
   say(fmt::format("== size sweep: square box beds of {} m tiles ({} particles each, poured and settled once), "
