@@ -4,6 +4,8 @@
 // energy is conserved and the contact lasts 2.868 (m*^2/(R* E*^2 v))^(1/5).
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include "scene_support.hpp"
 
 using namespace mlcg;
@@ -20,11 +22,13 @@ constexpr double kE = 2.5e7, kNu = 0.25, kRho = 1000.0;
 const double kEStarPair = 1.0 / (2.0 * (1.0 - kNu * kNu) / kE);
 const double kEStarWall = kEStarPair;  // the wall material has the same E and nu
 
-// Two particles approaching head on at relative speed v; dt = t_c/200.
-Impact pair_impact(double v, double alpha, double e, double mu, double steps_per_contact) {
+// Two particles approaching head on at relative speed v; dt = t_c/200. `edit` changes the case last.
+Impact pair_impact(double v, double alpha, double e, double mu, double steps_per_contact,
+                   const std::function<void(config::CaseSpec&)>& edit = {}) {
   auto cs = load("collision/head_on.toml");
   cs.interactions[0].restitution = e;
   cs.interactions[0].friction = mu;
+  if (edit) edit(cs);
   const double r = kRadius * alpha;
   const double m = sphere_mass(kRho, r);
   cs.levels[0].alpha = alpha;
@@ -71,6 +75,38 @@ Impact wall_impact(const std::string& scene, double v, double alpha, double e, d
 }
 
 }  // namespace
+
+// The law takes each pair's coefficients from its two materials: with a second material (same E, nu and
+// density) whose own pairs have e = 0.9, a glass-other collision must rebound with the glass-other e = 0.5,
+// and two particles of the other material with 0.9 (the kernel's one-material path must pick that pair's
+// coefficients, not the first material's).
+void add_second_material(config::CaseSpec& cs, double e_other, double e_mixed) {
+  config::MaterialSpec other = cs.materials[0];
+  other.name = "other";
+  cs.materials.push_back(other);
+  config::InteractionSpec same = cs.interactions[0], mixed = cs.interactions[0];
+  same.a = same.b = "other";
+  same.restitution = e_other;
+  mixed.b = "other";
+  mixed.restitution = e_mixed;
+  cs.interactions.push_back(same);
+  cs.interactions.push_back(mixed);
+}
+
+TEST(MixedMaterials, EachPairReboundsWithItsOwnRestitution) {
+  const Impact mixed = pair_impact(1.0, 1.0, 0.9, 0.2, kStepsPerContact, [](config::CaseSpec& cs) {
+    add_second_material(cs, 0.9, 0.5);
+    cs.particles[1].material = "other";
+  });
+  ASSERT_TRUE(mixed.separated);
+  EXPECT_NEAR(mixed.restitution, 0.5, 0.002 * 0.5);
+  const Impact other = pair_impact(1.0, 1.0, 0.5, 0.2, kStepsPerContact, [](config::CaseSpec& cs) {
+    add_second_material(cs, 0.9, 0.5);
+    cs.particles[0].material = cs.particles[1].material = "other";
+  });
+  ASSERT_TRUE(other.separated);
+  EXPECT_NEAR(other.restitution, 0.9, 0.002 * 0.9);
+}
 
 class PairRestitution : public ::testing::TestWithParam<std::tuple<double, double>> {};
 
