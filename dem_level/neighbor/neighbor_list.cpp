@@ -72,31 +72,39 @@ void NeighborList::build(const Particles& p, bool with_history) {
   neigh.clear();
   const auto& start = bins_.start();
   const auto& sorted = bins_.sorted();
+  // Positions and radii in bin order: x is the fastest cell index, so a row of three neighbouring
+  // cells is one contiguous run of candidates, tested without an indirection or a branch.
+  std::vector<double> xr(4 * n_all);
+  for (size_t s = 0; s < n_all; ++s) {
+    const auto j = static_cast<size_t>(sorted[s]);
+    xr[4 * s] = p.x[j].x;
+    xr[4 * s + 1] = p.x[j].y;
+    xr[4 * s + 2] = p.x[j].z;
+    xr[4 * s + 3] = p.radius[j];
+  }
   for (size_t i = 0; i < n_local; ++i) {
     const Vec3 xi = p.x[i];
     const double ri = p.radius[i] + skin_;
     int cx, cy, cz;
     bins_.cell_coords(xi, cx, cy, cz);
-    for (int dz = -1; dz <= 1; ++dz) {
-      const int z = cz + dz;
-      if (z < 0 || z >= bins_.nz()) continue;
-      for (int dy = -1; dy <= 1; ++dy) {
-        const int y = cy + dy;
-        if (y < 0 || y >= bins_.ny()) continue;
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int xx = cx + dx;
-          if (xx < 0 || xx >= bins_.nx()) continue;
-          const int c = bins_.index(xx, y, z);
-          for (int32_t s = start[static_cast<size_t>(c)]; s < start[static_cast<size_t>(c) + 1]; ++s) {
-            const int32_t j = sorted[static_cast<size_t>(s)];
-            if (j <= static_cast<int32_t>(i)) continue;
-            const Vec3 d = xi - p.x[static_cast<size_t>(j)];
-            const double cut = ri + p.radius[static_cast<size_t>(j)];
-            if (norm2(d) < cut * cut) neigh.push_back(j);
-          }
+    const int x_lo = std::max(cx - 1, 0), x_hi = std::min(cx + 1, bins_.nx() - 1);
+    for (int z = std::max(cz - 1, 0); z <= std::min(cz + 1, bins_.nz() - 1); ++z)
+      for (int y = std::max(cy - 1, 0); y <= std::min(cy + 1, bins_.ny() - 1); ++y) {
+        const auto s0 = static_cast<size_t>(start[static_cast<size_t>(bins_.index(x_lo, y, z))]);
+        const auto s1 = static_cast<size_t>(start[static_cast<size_t>(bins_.index(x_hi, y, z)) + 1]);
+        const size_t at = neigh.size();
+        neigh.resize(at + (s1 - s0));
+        int32_t* out = neigh.data() + at;
+        size_t kept = 0;
+        for (size_t s = s0; s < s1; ++s) {
+          const int32_t j = sorted[s];
+          const double dx = xi.x - xr[4 * s], dy = xi.y - xr[4 * s + 1], dz = xi.z - xr[4 * s + 2];
+          const double cut = ri + xr[4 * s + 3];
+          out[kept] = j;
+          kept += (j > static_cast<int32_t>(i)) & (dx * dx + dy * dy + dz * dz < cut * cut);
         }
+        neigh.resize(at + kept);
       }
-    }
     // Sorted neighbours give a deterministic pair order independent of bin layout.
     std::sort(neigh.begin() + first[i], neigh.end());
     first[i + 1] = static_cast<int32_t>(neigh.size());
