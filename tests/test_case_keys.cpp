@@ -270,48 +270,4 @@ TEST(CaseKeys, TheReaderRefusesAKeyOutsideItsList) {
   EXPECT_NE(readme.find("levels[0].dtt: unknown key (did you mean 'dt'?); allowed keys: " + list), std::string::npos);
 }
 
-// A CaseSpec built in code starts from the defaults written in case_spec.hpp; a parsed one from the
-// declarations. A case that sets only what is required must come out as the former, table by table.
-TEST(CaseKeys, TheSpecsDefaultsAreTheDeclaredDefaults) {
-  const std::string text = R"(
-[[materials]]
-name = "m"
-youngs_modulus = 1e7
-poisson_ratio = 0.3
-density = 1000
-[[interactions]]
-between = ["m", "m"]
-restitution = 0.5
-friction = 0.3
-[[levels]]
-dt = 1e-6
-[domain]
-min = [0, 0, 0]
-max = [1, 1, 1]
-[time]
-end = 0.1
-)";
-  const CaseSpec c = parse_case(text, "defaults.toml");
-  const CaseSpec d;
-  EXPECT_EQ(c.title, d.title);
-  EXPECT_EQ(c.seed, d.seed);
-  EXPECT_EQ(c.gravity.x, d.gravity.x);
-  EXPECT_EQ(c.gravity.z, d.gravity.z);
-  EXPECT_TRUE(c.contact == d.contact);
-  EXPECT_TRUE(c.output == d.output);
-  EXPECT_TRUE(c.stability == d.stability);
-  EXPECT_EQ(c.limits.max_steps, d.limits.max_steps);
-  EXPECT_EQ(c.limits.max_output_files, d.limits.max_output_files);
-  EXPECT_EQ(c.limits.max_memory_gb, d.limits.max_memory_gb);
-  EXPECT_EQ(c.time.progress_interval, d.time.progress_interval);
-  const LevelSpec l;
-  ASSERT_EQ(c.levels.size(), 1u);
-  EXPECT_EQ(c.levels[0].name, l.name);
-  EXPECT_EQ(c.levels[0].alpha, l.alpha);
-  EXPECT_EQ(c.levels[0].ranks, l.ranks);
-  EXPECT_EQ(c.levels[0].skin, l.skin);
-  EXPECT_EQ(c.levels[0].balance, l.balance);
-  EXPECT_EQ(c.interactions[0].rolling_friction, InteractionSpec{}.rolling_friction);
-}
-
 }  // namespace

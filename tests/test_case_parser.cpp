@@ -20,6 +20,30 @@ using namespace case_parser_test;
 
 // ---- valid input ----------------------------------------------------------------
 
+// Only the required keys.
+const char* const kMinimalCase = R"(
+[[materials]]
+name = "m"
+youngs_modulus = 1e7
+poisson_ratio = 0.25
+density = 2000
+
+[[interactions]]
+between = ["m", "m"]
+restitution = 1
+friction = 0
+
+[[levels]]
+dt = 2e-6
+
+[domain]
+min = [0, 0, 0]
+max = [1, 1, 1]
+
+[time]
+end = 1.5
+)";
+
 TEST(CaseParser, CompleteCaseParses) {
   const CaseSpec c = load_case(kFixture);
   EXPECT_EQ(c.path, kFixture);
@@ -139,28 +163,7 @@ TEST(CaseParser, CompleteCaseParses) {
 }
 
 TEST(CaseParser, MinimalCaseTakesDefaults) {
-  const std::string text = R"(
-[[materials]]
-name = "m"
-youngs_modulus = 1e7
-poisson_ratio = 0.25
-density = 2000
-
-[[interactions]]
-between = ["m", "m"]
-restitution = 1
-friction = 0
-
-[[levels]]
-dt = 2e-6
-
-[domain]
-min = [0, 0, 0]
-max = [1, 1, 1]
-
-[time]
-end = 1.5
-)";
+  const std::string text = kMinimalCase;
   const CaseSpec c = parse_case(text, "some/dir/min.toml");
   EXPECT_EQ(c.seed, 1u);
   expect_near(c.gravity, {0, 0, -9.81});
@@ -174,6 +177,32 @@ end = 1.5
   EXPECT_DOUBLE_EQ(c.stability.max_overlap_fraction, 0.3);
   EXPECT_DOUBLE_EQ(c.output.checkpoint_interval, 0.0);
   EXPECT_EQ(std::filesystem::path(c.dir), std::filesystem::absolute("some/dir").lexically_normal());
+}
+
+// A CaseSpec built in code starts from the defaults written in case_spec.hpp; a parsed one from the
+// declarations. A case that sets only what is required must come out as the former, table by table.
+TEST(CaseParser, TheSpecsDefaultsAreTheDeclaredDefaults) {
+  const CaseSpec c = parse_case(kMinimalCase, "defaults.toml");
+  const CaseSpec d;
+  EXPECT_EQ(c.title, d.title);
+  EXPECT_EQ(c.seed, d.seed);
+  EXPECT_EQ(c.gravity.x, d.gravity.x);
+  EXPECT_EQ(c.gravity.z, d.gravity.z);
+  EXPECT_TRUE(c.contact == d.contact);
+  EXPECT_TRUE(c.output == d.output);
+  EXPECT_TRUE(c.stability == d.stability);
+  EXPECT_EQ(c.limits.max_steps, d.limits.max_steps);
+  EXPECT_EQ(c.limits.max_output_files, d.limits.max_output_files);
+  EXPECT_EQ(c.limits.max_memory_gb, d.limits.max_memory_gb);
+  EXPECT_EQ(c.time.progress_interval, d.time.progress_interval);
+  const LevelSpec l;
+  ASSERT_EQ(c.levels.size(), 1u);
+  EXPECT_EQ(c.levels[0].name, l.name);
+  EXPECT_EQ(c.levels[0].alpha, l.alpha);
+  EXPECT_EQ(c.levels[0].ranks, l.ranks);
+  EXPECT_EQ(c.levels[0].skin, l.skin);
+  EXPECT_EQ(c.levels[0].balance, l.balance);
+  EXPECT_EQ(c.interactions[0].rolling_friction, InteractionSpec{}.rolling_friction);
 }
 
 TEST(CaseParser, OtherForms) {  // constant and uniform radius, box region, count and rate, rims = "both"
