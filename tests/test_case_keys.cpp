@@ -39,64 +39,126 @@ Keys keys_in_cell(const std::string& cell) {
   return out;
 }
 
-// Section heading (## or ###) -> the keys its tables list in their first column.
-std::map<std::string, Keys> documented() {
-  const std::string readme = mlcg::test::slurp(std::string(MLCG_SOURCE_DIR) + "/cases/README.md");
-  static const std::regex heading(R"(^#{2,3} (.*)$)"), row(R"(^\| ([^|]*) \|)");
-  std::map<std::string, Keys> out;
+// One table of the document (outside code blocks): the section heading (## or ###) above it, its header
+// cells, and its rows as column name -> cell.
+struct DocTable {
   std::string section;
-  size_t at = 0;
-  bool in_code = false;
-  while (at < readme.size()) {
-    const size_t nl = readme.find('\n', at);
-    const std::string line = readme.substr(at, nl == std::string::npos ? std::string::npos : nl - at);
-    at = nl == std::string::npos ? readme.size() : nl + 1;
+  std::vector<std::string> header;
+  std::vector<std::map<std::string, std::string>> rows;
+};
+
+// The cells of a table row, split at the bars that are not escaped (`\|g\|`).
+std::vector<std::string> cells_of(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (size_t i = 1; i < line.size(); ++i) {
+    if (line[i] == '|' && line[i - 1] != '\\') {
+      out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += line[i];
+    }
+  }
+  for (auto& c : out) c = std::regex_replace(c, std::regex(R"(^\s+|\s+$)"), "");
+  return out;
+}
+
+std::vector<DocTable> doc_tables() {
+  const std::string readme = mlcg::test::slurp(std::string(MLCG_SOURCE_DIR) + "/cases/README.md");
+  static const std::regex heading(R"(^#{2,3} (.*)$)");
+  std::vector<DocTable> out;
+  std::string section, line;
+  bool in_table = false, in_code = false;
+  std::istringstream in(readme);
+  while (std::getline(in, line)) {
     if (line.rfind("```", 0) == 0) in_code = !in_code;
     std::smatch m;
     if (in_code) continue;
     if (std::regex_match(line, m, heading)) section = m[1];
-    else if (!section.empty() && std::regex_search(line, m, row)) {
-      const Keys k = keys_in_cell(m[1]);
-      if (!k.empty()) out[section].insert(k.begin(), k.end());
+    if (line.rfind("|", 0) != 0 || section.empty()) {
+      in_table = false;
+      continue;
+    }
+    const auto cells = cells_of(line);
+    if (!in_table) {
+      out.push_back({section, cells, {}});
+      in_table = true;
+    } else if (!cells.empty() && cells[0].rfind("---", 0) != 0) {
+      std::map<std::string, std::string> row;
+      for (size_t c = 0; c < out.back().header.size() && c < cells.size(); ++c) row[out.back().header[c]] = cells[c];
+      out.back().rows.push_back(row);
     }
   }
   return out;
 }
 
-Keys all(std::initializer_list<const keys::List*> lists) {
-  Keys out;
-  for (const auto* l : lists) out.insert(l->begin(), l->end());
+// Section -> the keys its tables list in their first column.
+std::map<std::string, Keys> documented() {
+  std::map<std::string, Keys> out;
+  for (const DocTable& t : doc_tables())
+    for (const auto& row : t.rows) {
+      const auto first = row.find(t.header.empty() ? std::string() : t.header[0]);
+      if (first == row.end()) continue;
+      const Keys k = keys_in_cell(first->second);
+      if (!k.empty()) out[t.section].insert(k.begin(), k.end());
+    }
   return out;
+}
+
+// Where the document describes each declared table: its section, and which of that section's key tables
+// (those whose first header cell is `key`; -1: only named in the first column of another table, as the
+// radius forms are).
+struct Documented {
+  std::string section;
+  int key_table;
+  std::vector<schema::Keys> keys;
+};
+
+const std::vector<Documented>& documents() {
+  using namespace schema;
+  static const std::vector<Documented> d{
+      {"Top level", 0, {kTop}},
+      {"`[[materials]]`", 0, {kMaterial}},
+      {"`[[interactions]]`", 0, {kInteraction}},
+      {"`[contact]`", 0, {kContact}},
+      {"`[[levels]]`", 0, {kLevel}},
+      {"`[domain]`", 0, {kDomain}},
+      {"`[[walls]]`", 0, {kWall}},
+      {"`[[walls]]`", 1, {kPlane}},
+      {"`[[walls]]`", 2, {kCylinder, kCone, kDisk}},
+      {"`[[walls]]`", 3, {kMesh}},
+      {"`[[insertion]]`", 0, {kInsertion}},
+      {"`[[insertion]]`", 1, {kBoxRegion, kCylinderRegion}},
+      {"`[[insertion]]`", -1, {kRadiusDistribution}},
+      {"`[[particles]]`", 0, {kParticle}},
+      {"`[initial]`", 0, {kInitial}},
+      {"`[orifice]`", 0, {kOrifice}},
+      {"`[[events]]`", 0, {kEvent}},
+      {"`[[probes]]`", 0, {kProbe}},
+      {"`[[grids]]`", 0, {kGrid}},
+      {"`[output]`", 0, {kOutput}},
+      {"`[stability]`", 0, {kStability}},
+      {"`[limits]`", 0, {kLimits}},
+      {"`[time]`", 0, {kTime}},
+      {"`[time]`", 1, {kEndAfterEvent}},
+      {"`[coupling]`", 0, {kCoupling}},
+      {"`[launcher]`", 0, {kLauncher}},
+      {"`[[swap]]`", 0, {kSwap}},
+      {"`[[coupling.regions]]`", 0, {kCouplingRegion}},
+      {"Study files (`mlcg study`)", 0, {kStudy}},
+      {"Study files (`mlcg study`)", 1, {kStudyVariant}},
+      {"Study files (`mlcg study`)", 2, {kStudySweep}},
+  };
+  return d;
 }
 
 // The document's section of each table, and what the parser allows there.
 std::map<std::string, Keys> allowed() {
-  using namespace keys;
-  return {
-      {"Top level", all({&kTop})},
-      {"`[[materials]]`", all({&kMaterial})},
-      {"`[[interactions]]`", all({&kInteraction})},
-      {"`[contact]`", all({&kContact})},
-      {"`[[levels]]`", all({&kLevel})},
-      {"`[domain]`", all({&kDomain})},
-      {"`[[walls]]`", all({&kWall, &kPlane, &kCylinder, &kCone, &kDisk, &kMesh})},
-      {"`[[insertion]]`", all({&kInsertion, &kBoxRegion, &kCylinderRegion, &kRadiusDistribution})},
-      {"`[[particles]]`", all({&kParticle})},
-      {"`[initial]`", all({&kInitial})},
-      {"`[orifice]`", all({&kOrifice})},
-      {"`[[events]]`", all({&kEvent})},
-      {"`[[probes]]`", all({&kProbe})},
-      {"`[[grids]]`", all({&kGrid})},
-      {"`[output]`", all({&kOutput})},
-      {"`[stability]`", all({&kStability})},
-      {"`[limits]`", all({&kLimits})},
-      {"`[time]`", all({&kTime, &kEndAfterEvent})},
-      {"`[coupling]`", all({&kCoupling})},
-      {"`[launcher]`", all({&kLauncher})},
-      {"`[[swap]]`", all({&kSwap})},
-      {"`[[coupling.regions]]`", all({&kCouplingRegion})},
-      {"Study files (`mlcg study`)", all({&kStudy, &kStudyVariant, &kStudySweep})},
-  };
+  std::map<std::string, Keys> out;
+  for (const Documented& d : documents())
+    for (schema::Keys keys : d.keys)
+      for (const schema::KeySpec& k : keys) out[d.section].insert(std::string(k.name));
+  return out;
 }
 
 std::string listed(const Keys& k) {
@@ -123,99 +185,27 @@ TEST(CaseKeys, TheDocumentListsExactlyTheKeysTheParserAllows) {
                                           << listed(written) << ") that no table of the parser is matched with";
 }
 
+
 // ---- the key tables' type, default and allowed cells ------------------------------------------
-
-// One key table of the document: its section, its place among that section's key tables, and its rows
-// as column name -> cell.
-struct KeyTable {
-  std::string section;
-  int index = 0;
-  std::vector<std::map<std::string, std::string>> rows;
-};
-
-// The cells of a table row, split at the bars that are not escaped (`\|g\|`).
-std::vector<std::string> cells_of(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (size_t i = 1; i < line.size(); ++i) {
-    if (line[i] == '|' && line[i - 1] != '\\') {
-      out.push_back(cur);
-      cur.clear();
-    } else {
-      cur += line[i];
-    }
-  }
-  for (auto& c : out) c = std::regex_replace(c, std::regex(R"(^\s+|\s+$)"), "");
-  return out;
-}
-
-// Every table whose header's first cell is `key`, outside code blocks.
-std::vector<KeyTable> key_tables() {
-  const std::string readme = mlcg::test::slurp(std::string(MLCG_SOURCE_DIR) + "/cases/README.md");
-  static const std::regex heading(R"(^#{2,3} (.*)$)");
-  std::vector<KeyTable> out;
-  std::map<std::string, int> count;
-  std::vector<std::string> header;
-  std::string section, line;
-  bool in_code = false;
-  std::istringstream in(readme);
-  while (std::getline(in, line)) {
-    if (line.rfind("```", 0) == 0) in_code = !in_code;
-    std::smatch m;
-    if (in_code) continue;
-    if (std::regex_match(line, m, heading)) section = m[1];
-    if (line.rfind("|", 0) != 0) {
-      header.clear();
-      continue;
-    }
-    const auto cells = cells_of(line);
-    if (header.empty() && !cells.empty() && cells[0] == "key") {
-      header = cells;
-      out.push_back({section, count[section]++, {}});
-    } else if (!header.empty() && cells[0].rfind("---", 0) != 0) {
-      std::map<std::string, std::string> row;
-      for (size_t c = 0; c < header.size() && c < cells.size(); ++c) row[header[c]] = cells[c];
-      out.back().rows.push_back(row);
-    }
-  }
-  return out;
-}
 
 // The declarations each key table documents: (section, index among its key tables) -> lists.
 std::map<std::pair<std::string, int>, std::vector<schema::Keys>> declarations() {
-  using namespace schema;
-  return {
-      {{"Top level", 0}, {kTop}},
-      {{"`[[materials]]`", 0}, {kMaterial}},
-      {{"`[[interactions]]`", 0}, {kInteraction}},
-      {{"`[contact]`", 0}, {kContact}},
-      {{"`[[levels]]`", 0}, {kLevel}},
-      {{"`[domain]`", 0}, {kDomain}},
-      {{"`[[walls]]`", 0}, {kWall}},
-      {{"`[[walls]]`", 1}, {kPlane}},
-      {{"`[[walls]]`", 2}, {kCylinder, kCone, kDisk}},
-      {{"`[[walls]]`", 3}, {kMesh}},
-      {{"`[[insertion]]`", 0}, {kInsertion}},
-      {{"`[[insertion]]`", 1}, {kBoxRegion, kCylinderRegion}},
-      {{"`[[particles]]`", 0}, {kParticle}},
-      {{"`[initial]`", 0}, {kInitial}},
-      {{"`[orifice]`", 0}, {kOrifice}},
-      {{"`[[events]]`", 0}, {kEvent}},
-      {{"`[[probes]]`", 0}, {kProbe}},
-      {{"`[[grids]]`", 0}, {kGrid}},
-      {{"`[output]`", 0}, {kOutput}},
-      {{"`[stability]`", 0}, {kStability}},
-      {{"`[limits]`", 0}, {kLimits}},
-      {{"`[time]`", 0}, {kTime}},
-      {{"`[time]`", 1}, {kEndAfterEvent}},
-      {{"`[coupling]`", 0}, {kCoupling}},
-      {{"`[launcher]`", 0}, {kLauncher}},
-      {{"`[[swap]]`", 0}, {kSwap}},
-      {{"`[[coupling.regions]]`", 0}, {kCouplingRegion}},
-      {{"Study files (`mlcg study`)", 0}, {kStudy}},
-      {{"Study files (`mlcg study`)", 1}, {kStudyVariant}},
-      {{"Study files (`mlcg study`)", 2}, {kStudySweep}},
-  };
+  std::map<std::pair<std::string, int>, std::vector<schema::Keys>> out;
+  for (const Documented& d : documents())
+    if (d.key_table >= 0) out[{d.section, d.key_table}] = d.keys;
+  return out;
+}
+
+// The tables whose first header cell is `key`, with their index among their section's key tables.
+std::vector<std::pair<DocTable, int>> key_tables() {
+  std::vector<std::pair<DocTable, int>> out;
+  std::map<std::string, int> count;
+  for (DocTable& t : doc_tables())
+    if (!t.header.empty() && t.header[0] == "key") {
+      const int index = count[t.section]++;
+      out.emplace_back(std::move(t), index);
+    }
+  return out;
 }
 
 std::string normalised(std::string_view text) {
@@ -225,9 +215,9 @@ std::string normalised(std::string_view text) {
 TEST(CaseKeys, TheDocumentsTypeDefaultAndAllowedCellsAreTheDeclarations) {
   const auto decl = declarations();
   size_t checked = 0;
-  for (const KeyTable& table : key_tables()) {
-    const std::string where = table.section + " (key table " + std::to_string(table.index) + ")";
-    const auto it = decl.find({table.section, table.index});
+  for (const auto& [table, index] : key_tables()) {
+    const std::string where = table.section + " (key table " + std::to_string(index) + ")";
+    const auto it = decl.find({table.section, index});
     ASSERT_NE(it, decl.end()) << "cases/README.md: " << where << " is matched with no declaration";
     for (const auto& row : table.rows)
       for (const std::string& name : keys_in_cell(row.at("key"))) {

@@ -65,7 +65,7 @@ void check_inside_domain(const Table& t, std::string_view k_lo, std::string_view
 // ---- [[walls]] --------------------------------------------------------------
 
 void read_walls(const Table& root, CaseSpec& spec, Names& names) {
-  const std::vector<std::string> types = schema::choices(schema::kWall[1]);
+  const std::vector<std::string> types = schema::choices(schema::at(schema::kWall, "type"));
   static const schema::Keys of_type[] = {schema::kPlane, schema::kCylinder, schema::kCone, schema::kDisk,
                                          schema::kMesh};  // in WallType order
   for (const Table& raw : array_of_tables(root, "walls")) {

@@ -147,7 +147,6 @@ namespace pair_detail {
 // 1a. The touching pairs of particles [i0, i1), as (i, k) in list order; returns their count.
 // Branch-free: whether a listed pair touches is unpredictable, so every pair is written to the next
 // slot and the slot only advances if it touches. A listed pair that does not touch costs one test.
-template <class Model>
 MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t i0, size_t i1, ContactBlock& b) {
   const Vec3* __restrict x = a.x;
   const double* __restrict rad = a.rad;
@@ -299,7 +298,7 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
   for (size_t i0 = 0; i0 < n; i0 += kBlock) {
     const size_t i1 = std::min(n, i0 + kBlock), i2 = std::min(n, i1 + kBlock);
     b.reserve(static_cast<size_t>(nl.first[i1] - nl.first[i0]));
-    const int32_t nc = pair_detail::find_touching<Model>(a, i0, i1, b);
+    const int32_t nc = pair_detail::find_touching(a, i0, i1, b);
     pair_detail::gather_touching<Model>(a, nc, b);
     pair_detail::reset_history<Model>(a, i1, i2, nl.first[i0]);
     // 2. The contact law, vectorized.
