@@ -166,11 +166,19 @@ MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t i0, size_t i1, Con
         __builtin_prefetch(&a.f[j], 1);
         __builtin_prefetch(&a.t[j], 1);
       }
-      const double radsum = ri + rad[j];
-      const bool touch = norm2(xi - x[j]) < radsum * radsum;
+      const double rj = rad[j];
+      const double radsum = ri + rj;
+      const Vec3 d = xi - x[j];
+      const bool touch = norm2(d) < radsum * radsum;
+      // What the test computed is kept for the gather (written for every pair, kept for the touching).
       const auto c = static_cast<size_t>(nc);
       b.i[c] = static_cast<int32_t>(i);
+      b.j[c] = static_cast<int32_t>(j);
       b.k[c] = k;
+      b.d.x[c] = d.x;
+      b.d.y[c] = d.y;
+      b.d.z[c] = d.z;
+      b.rj[c] = rj;
       nc += touch ? 1 : 0;
     }
   }
@@ -180,25 +188,17 @@ MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t i0, size_t i1, Con
 // 1b. What the contact law needs, for the nc touching pairs found.
 template <class Model>
 MLCG_INLINE void gather_touching(const PairArrays& a, int32_t nc, ContactBlock& b) {
-  const Vec3* __restrict x = a.x;
   const Vec3* __restrict v = a.v;
   const Vec3* __restrict w = a.w;
   const double* __restrict rad = a.rad;
   const double* __restrict mass = a.mass;
-  const int32_t* __restrict neigh = a.neigh;
   for (int32_t q = 0; q < nc; ++q) {
     const auto c = static_cast<size_t>(q);
     const auto i = static_cast<size_t>(b.i[c]);
-    const auto j = static_cast<size_t>(neigh[b.k[c]]);
-    b.j[c] = static_cast<int32_t>(j);
-    const Vec3 d = x[i] - x[j];
-    const double ri = rad[i], rj = rad[j];
+    const auto j = static_cast<size_t>(b.j[c]);
+    const double ri = rad[i], rj = b.rj[c];
     if (!a.uniform) b.cix[c] = a.mat[i] * a.nmat + a.mat[j];  // one material: the law never reads it
-    b.d.x[c] = d.x;
-    b.d.y[c] = d.y;
-    b.d.z[c] = d.z;
     b.ri[c] = ri;
-    b.rj[c] = rj;
     b.mi[c] = mass[i];
     b.mj[c] = mass[j];
     const Vec3 dv = v[i] - v[j];
