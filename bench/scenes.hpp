@@ -50,10 +50,17 @@ std::string toml_quoted(const std::filesystem::path& p);
 // The materials ("particle", walls "steel"), their interactions, the contact model and the domain.
 std::string materials_and_domain(const BenchParams& p, const std::array<double, 3>& lo,
                                  const std::array<double, 3>& hi);
-// Pouring `count` particles close above the heap into `region` (a TOML inline table) and the end:
-// an event "settled" when the mean speed is below p.settle_speed (latest p.settle_latest), + p.settle_extra.
+// One [[levels]] entry.
+std::string level_block(const char* name, double dt, int ranks, double skin);
+// Pouring `count` particles at `rate` [1/s] in batches every `interval` [s] (0 = automatic) close above
+// the heap into `region` (a TOML inline table).
+std::string pour_into(const BenchParams& p, const std::string& region, long count, double rate, double interval);
+// pour_into and the end: an event "settled" when the mean speed is below p.settle_speed (latest
+// p.settle_latest), + p.settle_extra.
 std::string pour_and_settle(const BenchParams& p, const std::string& region, long count);
-// A measured run's start and end: the particles of bed_h5 at rest, run to `end`, only the final output.
+// A measured run's end: at `end`, with only the final output.
+std::string fixed_end(double end);
+// A measured run's start and end: the particles of bed_h5 at rest, then fixed_end(end).
 std::string start_from_bed(const std::filesystem::path& bed_h5, double end);
 // Fill the silo (lid closed) by pouring close above the heap and settle it, at prepare_dt.
 std::string prepare_case(const BenchParams& p, const Files& f);

@@ -48,10 +48,6 @@ std::string box_walls(double width, double depth) {
   return s;
 }
 
-std::string level_block(const char* name, double dt, int ranks, double skin) {
-  return fmt::format("\n[[levels]]\nname = \"{}\"\ndt = {}\nranks = {}\nskin = {}\n", name, dt, ranks, skin);
-}
-
 BedRecipe tile_recipe(const BenchParams& p) {
   const double top = 0.3;
   std::string s = fmt::format(
