@@ -1,12 +1,16 @@
 // mlcg_bench: single-level speed of dem_level on a settled dense silo bed and a discharging silo
 // (paper material, dt = 1e-6 s, STL walls), and of LIGGGHTS on the identical scene when it is
-// installed; then a size sweep of our own speed on box beds of about 30 k, 300 k and 1 M particles
-// (sweep.hpp). Prints a table per scene and rank count, and the sweep's table; the last lines are
-// machine-readable:
+// installed; the pour, our own speed while the empty silo fills (pour.hpp: rebuilds and insertion
+// cost more there); then a size sweep of our own speed on box beds of about 30 k, 300 k and 1 M
+// particles (sweep.hpp). Prints a table per scene and rank count, the pour's and the sweep's tables;
+// the last lines are machine-readable:
+//   pour rank1=<p> rank2=<q> rebuild_share1=<s> rebuild_share2=<t>
 //   ratio_vs_liggghts rank1=<x> rank2=<y>     (or: liggghts=absent)
 //   scaling rank1=<a> rank2=<b>
-// x, y = our particle-steps/s per core / LIGGGHTS's, medians, bed scene; a, b = our per-core rate on
-// the largest sweep bed / on the smallest; "na" when not measured (also with --skip-liggghts).
+// p, q = our particle-steps/s per core in the pour, s, t = its share of the loop time in neighbour
+// rebuilds (one pair per --ranks entry); x, y = our particle-steps/s per core / LIGGGHTS's, medians, bed
+// scene; a, b = our per-core rate on the largest sweep bed / on the smallest; "na" when not measured
+// (also with --skip-liggghts). A line is left out when its scene was not run (--scene).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -22,6 +26,7 @@
 #include "bed.hpp"
 #include "geometry.hpp"
 #include "parse.hpp"
+#include "pour.hpp"
 #include "process.hpp"
 #include "scenes.hpp"
 #include "snapshot.hpp"
@@ -112,15 +117,8 @@ std::string fmt_num(double x, const char* spec = "{:.3g}") {
 }
 std::string fmt_pct(double x) { return std::isnan(x) ? "-" : fmt::format("{:.1f}%", 100.0 * x); }
 
-}  // namespace
-
-// The silo scenes: the bed prepared (or reused), every scene x rank count x code run, the tables
-// printed. Returns the machine-readable line (ratio_vs_liggghts ... or liggghts=absent).
-std::string run_silo_scenes(const Options& o, const BenchParams& p, const std::vector<Scene>& scenes,
-                            const std::vector<int>& ranks, const fs::path& dem_level, const fs::path& work,
-                            const std::optional<fs::path>& mpirun, const std::optional<fs::path>& liggghts,
-                            bool liggghts_installed) {
-  // Geometry (both codes read these files).
+// The silo and lid as STL in DIR/geometry: both codes read these files, the silo scenes and the pour.
+Files write_silo_files(const BenchParams& p, const fs::path& work) {
   Files files{work / "geometry" / "silo.stl", work / "geometry" / "lid.stl"};
   const auto silo_tris = silo_wall_triangles(p.geometry);
   const auto lid_tris = lid_triangles(p.geometry);
@@ -131,7 +129,17 @@ std::string run_silo_scenes(const Options& o, const BenchParams& p, const std::v
                   files.silo_stl.string(), silo_tris.size(), p.geometry.orifice_radius, p.geometry.radius,
                   p.geometry.cone_height, p.geometry.top, p.geometry.segments, files.lid_stl.string(),
                   lid_tris.size(), p.geometry.lid_radius));
+  return files;
+}
 
+}  // namespace
+
+// The silo scenes: the bed prepared (or reused), every scene x rank count x code run, the tables
+// printed. Returns the machine-readable line (ratio_vs_liggghts ... or liggghts=absent).
+std::string run_silo_scenes(const Options& o, const BenchParams& p, const Files& files,
+                            const std::vector<Scene>& scenes, const std::vector<int>& ranks,
+                            const fs::path& dem_level, const fs::path& work, const std::optional<fs::path>& mpirun,
+                            const std::optional<fs::path>& liggghts, bool liggghts_installed) {
   const Bed bed = prepare_bed(silo_bed_recipe(p, files), work / "bed", dem_level, o.rebuild_bed);
   const fs::path bed_h5 = work / "bed" / "bed.h5";
   const fs::path bed_data = work / "bed" / "bed.data";
@@ -341,20 +349,23 @@ std::string run_silo_scenes(const Options& o, const BenchParams& p, const std::v
   return fmt::format("ratio_vs_liggghts rank1={} rank2={}", ratio_str(1), ratio_str(2));
 }
 
-int main(int argc, char** argv) {
-  Options o;
-  CLI::App app{"mlcg_bench: dem_level speed on a settled silo bed and a discharging silo (paper material, dt = 1e-6 s), "
-               "and LIGGGHTS on the identical scene when installed. Last line: ratio_vs_liggghts rank1=<x> "
-               "rank2=<y> (or liggghts=absent)."};
-  app.add_option("--steps", o.steps, "time steps per measured run")->check(CLI::PositiveNumber)->capture_default_str();
+namespace {
+
+void add_options(CLI::App& app, Options& o) {
+  app.add_option("--steps", o.steps, "time steps per measured run of the silo scenes and the sweep (the pour has its "
+                                     "own duration)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--repeat", o.repeat, "runs per configuration (medians are reported)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--work", o.work, "work folder: geometry, cached bed, runs (default: <build>/bench)");
   app.add_option("--ranks", o.ranks, "comma-separated rank counts")->capture_default_str();
   app.add_flag("--skip-liggghts", o.skip_liggghts, "do not run LIGGGHTS");
-  app.add_option("--scene", o.scene, "bed, discharge, both (bed and discharge), sweep (the size sweep) or all")
-      ->check(CLI::IsMember({"bed", "discharge", "both", "sweep", "all"}))
+  app.add_option("--scene", o.scene,
+                 "bed, discharge, both (bed and discharge), pour (the empty silo filling, ours only), sweep (the "
+                 "size sweep) or all")
+      ->check(CLI::IsMember({"bed", "discharge", "both", "pour", "sweep", "all"}))
       ->capture_default_str();
   app.add_option("--dem-level", o.dem_level, "dem_level executable (default: next to mlcg_bench)");
   app.add_option("--liggghts", o.liggghts, "LIGGGHTS executable")->capture_default_str();
@@ -367,6 +378,53 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--sizes", o.sizes, "particle counts of the size sweep (comma-separated)")->capture_default_str();
   app.add_flag("--rebuild-bed", o.rebuild_bed, "prepare the settled bed again even if a cached one fits");
+}
+
+// A comma-separated list of positive numbers, each once, in the order given.
+std::vector<long> positive_list(const std::string& text, const char* option) {
+  std::vector<long> out;
+  std::stringstream ss(text);
+  for (std::string t; std::getline(ss, t, ',');) {
+    long v = 0;
+    try {
+      v = std::stol(t);
+    } catch (const std::exception&) {
+      throw std::runtime_error(fmt::format("{}: '{}' is not a number", option, t));
+    }
+    if (v < 1) throw std::runtime_error(fmt::format("{}: every value must be >= 1, not {}", option, v));
+    if (std::find(out.begin(), out.end(), v) == out.end()) out.push_back(v);
+  }
+  if (out.empty()) throw std::runtime_error(fmt::format("{}: give at least one value", option));
+  return out;
+}
+
+void say_setup(const Options& o, const BenchParams& p, const fs::path& dem_level, const fs::path& work,
+               const std::optional<fs::path>& mpirun, const std::optional<fs::path>& liggghts,
+               bool liggghts_installed) {
+  say(fmt::format("mlcg_bench: {} particles of r = {} mm, paper material (E = {:g} Pa, nu = {}, rho = {} kg/m3, "
+                  "e = {}, mu particle-particle = {}, particle-wall = {}), dt = {:g} s, skin = {} mm, {} steps, "
+                  "{} repeat(s)",
+                  p.particles, p.radius * 1e3, p.material.youngs_modulus, p.material.poisson_ratio,
+                  p.material.density, p.material.restitution, p.material.friction_pp, p.material.friction_pw, p.dt,
+                  p.skin * 1e3, p.steps, o.repeat));
+  say(fmt::format("machine: {}; load average at start: {} (other processes share these cores; the numbers "
+                  "include their interference)",
+                  machine_line(), load_average()));
+  say(fmt::format("dem_level: {}; LIGGGHTS: {}; mpirun: {}; work folder: {}", dem_level.string(),
+                  liggghts ? liggghts->string() : (liggghts_installed ? "skipped (--skip-liggghts)" : "not installed"),
+                  mpirun ? mpirun->string() : "not found", work.string()));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"mlcg_bench: dem_level speed on a settled silo bed and a discharging silo (paper material, dt = 1e-6 s), "
+               "and LIGGGHTS on the identical scene when installed; the pour (the empty silo filling, ours only); the "
+               "size sweep. Last lines: pour rank1=<p> rank2=<q> rebuild_share1=<s> rebuild_share2=<t>, "
+               "ratio_vs_liggghts rank1=<x> rank2=<y> (or liggghts=absent), scaling rank1=<a> rank2=<b>; each only "
+               "when its scene ran."};
+  add_options(app, o);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -374,20 +432,12 @@ int main(int argc, char** argv) {
     p.steps = o.steps;
     p.particles = o.particles;
     p.geometry.segments = o.segments;
-
     std::vector<int> ranks;
-    {
-      std::stringstream ss(o.ranks);
-      for (std::string t; std::getline(ss, t, ',');) {
-        const int r = std::stoi(t);
-        if (r < 1) throw std::runtime_error("--ranks: every rank count must be >= 1");
-        if (std::find(ranks.begin(), ranks.end(), r) == ranks.end()) ranks.push_back(r);
-      }
-      if (ranks.empty()) throw std::runtime_error("--ranks: give at least one rank count");
-    }
+    for (long r : positive_list(o.ranks, "--ranks")) ranks.push_back(static_cast<int>(r));
     std::vector<Scene> scenes;
     if (o.scene == "bed" || o.scene == "both" || o.scene == "all") scenes.push_back(Scene::Bed);
     if (o.scene == "discharge" || o.scene == "both" || o.scene == "all") scenes.push_back(Scene::Discharge);
+    const bool pour = o.scene == "pour" || o.scene == "all";
     const bool sweep = o.scene == "sweep" || o.scene == "all";
 
     const fs::path self = own_directory();
@@ -400,32 +450,20 @@ int main(int argc, char** argv) {
     fs::create_directories(work / "geometry");
     fs::create_directories(work / "bed");
     fs::create_directories(work / "runs");
+    say_setup(o, p, dem_level, work, mpirun, liggghts, liggghts_installed);
 
-    say(fmt::format("mlcg_bench: {} particles of r = {} mm, paper material (E = {:g} Pa, nu = {}, rho = {} kg/m3, "
-                    "e = {}, mu particle-particle = {}, particle-wall = {}), dt = {:g} s, skin = {} mm, {} steps, "
-                    "{} repeat(s)",
-                    p.particles, p.radius * 1e3, p.material.youngs_modulus, p.material.poisson_ratio,
-                    p.material.density, p.material.restitution, p.material.friction_pp, p.material.friction_pw, p.dt,
-                    p.skin * 1e3, p.steps, o.repeat));
-    say(fmt::format("machine: {}; load average at start: {} (other processes share these cores; the numbers "
-                    "include their interference)",
-                    machine_line(), load_average()));
-    say(fmt::format("dem_level: {}; LIGGGHTS: {}; mpirun: {}; work folder: {}", dem_level.string(),
-                    liggghts ? liggghts->string() : (liggghts_installed ? "skipped (--skip-liggghts)" : "not installed"),
-                    mpirun ? mpirun->string() : "not found", work.string()));
-
-    std::string ratio_line;
+    std::optional<Files> files;
+    if (!scenes.empty() || pour) files = write_silo_files(p, work);
+    std::string ratio_line, pour_summary, scaling;
     if (!scenes.empty())
-      ratio_line = run_silo_scenes(o, p, scenes, ranks, dem_level, work, mpirun, liggghts, liggghts_installed);
-    std::string scaling;
+      ratio_line = run_silo_scenes(o, p, *files, scenes, ranks, dem_level, work, mpirun, liggghts, liggghts_installed);
+    if (pour) {
+      PourOptions po{ranks, o.repeat, *files, work, dem_level, mpirun.value_or(fs::path())};
+      pour_summary = pour_line(run_pour(p, po), ranks);
+    }
     if (sweep) {
       SweepOptions so;
-      std::stringstream ss(o.sizes);
-      for (std::string t; std::getline(ss, t, ',');) {
-        const long n = std::stol(t);
-        if (n < 1) throw std::runtime_error("--sizes: every size must be >= 1");
-        so.sizes.push_back(n);
-      }
+      so.sizes = positive_list(o.sizes, "--sizes");
       so.ranks = ranks;
       so.steps = o.steps;
       so.repeat = o.repeat;
@@ -435,9 +473,10 @@ int main(int argc, char** argv) {
       if (mpirun) so.mpirun = *mpirun;
       scaling = "scaling " + scaling_line(run_sweep(p, so), ranks);
     }
+    // The pour's line before the two that scripts read as the last ones.
     say("");
-    if (!ratio_line.empty()) say(ratio_line);
-    if (!scaling.empty()) say(scaling);
+    for (const auto& line : {pour_summary, ratio_line, scaling})
+      if (!line.empty()) say(line);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "mlcg_bench: error: %s\n", e.what());
     return 1;

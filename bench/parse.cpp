@@ -9,6 +9,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "process.hpp"
+
 namespace mlcg::bench {
 
 namespace fs = std::filesystem;
@@ -68,7 +70,7 @@ std::string first_line_with(const fs::path& file, const std::string& needle) {
   return "";
 }
 
-RunMetrics parse_mlcg(const fs::path& run_dir, const fs::path& console_log, int exit_code) {
+RunMetrics parse_mlcg(const fs::path& run_dir, const fs::path& console_log, int exit_code, Count count) {
   RunMetrics m;
   const fs::path summary = run_dir / "summary.json";
   if (exit_code != 0 || !fs::exists(summary)) {
@@ -93,7 +95,8 @@ RunMetrics parse_mlcg(const fs::path& run_dir, const fs::path& console_log, int 
     m.rate = m.loop_seconds > 0 ? ps / m.loop_seconds : 0.0;
     // Guard against a per-rank particle count (all ranks must be counted): compare with particles x steps.
     const double expect = static_cast<double>(m.particles) * static_cast<double>(m.steps);
-    if (m.ranks > 1 && expect > 0 && ps < 0.95 * expect && m.particles_end >= 0.99 * m.particles) {
+    if (count == Count::Constant && m.ranks > 1 && expect > 0 && ps < 0.95 * expect &&
+        m.particles_end >= 0.99 * m.particles) {
       m.warnings.push_back(fmt::format("summary.json particle_steps = {:.4g} < particles x steps = {:.4g} (per-rank "
                                        "count?); the rate uses particles x steps",
                                        ps, expect));
@@ -109,7 +112,11 @@ RunMetrics parse_mlcg(const fs::path& run_dir, const fs::path& console_log, int 
       m.share[2] = c / m.loop_seconds;
       m.share[3] = ms / m.loop_seconds;
       m.share[4] = std::max(0.0, m.loop_seconds - f - nb - c - ms) / m.loop_seconds;
+      m.insert_share = num(sec, "insert") / m.loop_seconds;
     }
+    const auto& mb = j.at("mass_balance");
+    m.inserted = mb.at("inserted").get<long>();
+    m.failed_to_place = mb.at("failed_to_place").get<long>();
     m.breakdown = fmt::format("wall {:.2f} s = force {:.2f} + neighbor {:.2f} + integrate {:.2f} + comm {:.2f} + "
                               "measure {:.2f} + insert {:.2f} + output {:.2f} + rest {:.2f}",
                               wall, f, nb, num(sec, "integrate"), c, ms, num(sec, "insert"), output,
@@ -135,6 +142,21 @@ RunMetrics parse_mlcg(const fs::path& run_dir, const fs::path& console_log, int 
   for (const auto& l : lines_of(slurp(run_dir / "log.txt")))
     if (l.find("warn") != std::string::npos || l.find("WARN") != std::string::npos) m.warnings.push_back(trim(l));
   m.ok = true;
+  return m;
+}
+
+RunMetrics run_mlcg(const fs::path& dem_level, const fs::path& mpirun, int ranks, const fs::path& case_file,
+                    const fs::path& run_dir, Count count) {
+  fs::remove_all(run_dir);
+  fs::create_directories(run_dir);
+  std::vector<std::string> cmd;
+  if (ranks > 1) cmd = mpirun_prefix(mpirun, ranks);
+  for (const auto& a : {dem_level.string(), case_file.string(), std::string("--out"), run_dir.string(),
+                        std::string("--quiet")})
+    cmd.push_back(a);
+  const auto r = run_process(cmd, run_dir, run_dir / "console.txt");
+  RunMetrics m = parse_mlcg(run_dir, run_dir / "console.txt", r.exit_code, count);
+  if (r.background_cores() >= 0) m.background_cores = r.background_cores();
   return m;
 }
 

@@ -25,6 +25,9 @@ struct RunMetrics {
   double bytes_per_particle = kNaN;
   // Share of loop_seconds, in this order: force, neighbour, comm, measure, other (NaN = not reported).
   double share[5] = {kNaN, kNaN, kNaN, kNaN, kNaN};
+  double insert_share = kNaN;          // MLCG: insertion's share of loop_seconds (part of "other")
+  long inserted = -1;                  // MLCG: mass_balance.inserted ([initial] particles included)
+  long failed_to_place = -1;           // MLCG: mass_balance.failed_to_place
   double final_kinetic_energy = kNaN;  // [J]
   long dangerous_builds = -1;          // LIGGGHTS only
   double background_cores = kNaN;      // cores other processes kept busy meanwhile (machine load)
@@ -32,8 +35,19 @@ struct RunMetrics {
   std::string breakdown;               // the program's own time breakdown, as text
 };
 
+// Whether a run keeps its particle count (a bed, a discharge) or fills (the pour): only a constant count
+// lets parse_mlcg check summary.json's particle_steps against particles x steps.
+enum class Count { Constant, Grows };
+
 // dem_level run folder (summary.json, series.csv, log.txt); `exit_code` of the process.
-RunMetrics parse_mlcg(const std::filesystem::path& run_dir, const std::filesystem::path& console_log, int exit_code);
+RunMetrics parse_mlcg(const std::filesystem::path& run_dir, const std::filesystem::path& console_log, int exit_code,
+                      Count count = Count::Constant);
+// One dem_level run of `case_file` on `ranks` ranks (through `mpirun` when more than one) into a fresh
+// `run_dir` (what it prints in run_dir/console.txt), parsed as parse_mlcg does; background_cores is set
+// when /proc/stat tells it.
+RunMetrics run_mlcg(const std::filesystem::path& dem_level, const std::filesystem::path& mpirun, int ranks,
+                    const std::filesystem::path& case_file, const std::filesystem::path& run_dir,
+                    Count count = Count::Constant);
 // LIGGGHTS log (the `-log` file, or the console output).
 RunMetrics parse_liggghts(const std::filesystem::path& log, const std::filesystem::path& console_log, int exit_code);
 

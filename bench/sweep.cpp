@@ -7,7 +7,6 @@
 
 #include "bed.hpp"
 #include "parse.hpp"
-#include "process.hpp"
 
 namespace mlcg::bench {
 
@@ -46,10 +45,6 @@ std::string box_walls(double width, double depth) {
                      "normal = [{}, {}, {}]\n",
                      w.name, w.px, w.py, w.nx, w.ny, w.nz);
   return s;
-}
-
-std::string level_block(const char* name, double dt, int ranks, double skin) {
-  return fmt::format("\n[[levels]]\nname = \"{}\"\ndt = {}\nranks = {}\nskin = {}\n", name, dt, ranks, skin);
 }
 
 BedRecipe tile_recipe(const BenchParams& p) {
@@ -140,21 +135,13 @@ void measure_once(const BenchParams& p, const SweepOptions& o, const Size& z, in
   if (!out.error.empty()) return;
   const fs::path case_file = dir / fmt::format("n{}_r{}.toml", z.particles, ranks);
   if (rep == 1) write_text(case_file, measured_case(p, z.layout, ranks, z.steps, z.bed_h5));
-  const fs::path run = dir / fmt::format("n{}_r{}_{}", z.particles, ranks, rep);
-  fs::remove_all(run);
-  fs::create_directories(run);
-  std::vector<std::string> cmd;
-  if (ranks > 1) cmd = mpirun_prefix(o.mpirun, ranks);
-  for (const auto& a : {o.dem_level.string(), case_file.string(), std::string("--out"), run.string(),
-                        std::string("--quiet")})
-    cmd.push_back(a);
   std::fputs(fmt::format("sweep: {} particles, {} rank(s), {} steps, repeat {}/{} ... ", z.particles, ranks, z.steps,
                          rep, o.repeat)
                  .c_str(),
              stdout);
   std::fflush(stdout);
-  const auto r = run_process(cmd, run, run / "console.txt");
-  const RunMetrics m = parse_mlcg(run, run / "console.txt", r.exit_code);
+  const RunMetrics m = run_mlcg(o.dem_level, o.mpirun, ranks, case_file,
+                                dir / fmt::format("n{}_r{}_{}", z.particles, ranks, rep));
   if (!m.ok) {
     out.error = m.error;
     say("unavailable: " + m.error);
@@ -167,9 +154,9 @@ void measure_once(const BenchParams& p, const SweepOptions& o, const Size& z, in
   }
   out.rates.push_back(m.rate / ranks);
   out.bytes.push_back(m.bytes_per_particle);
-  out.busy.push_back(r.background_cores());
+  out.busy.push_back(m.background_cores);
   say(fmt::format("{:.1f} s, {:.3g} particle-steps/s per core; other processes kept {:.2f} core(s) busy",
-                  m.loop_seconds, m.rate / ranks, r.background_cores()));
+                  m.loop_seconds, m.rate / ranks, m.background_cores));
 }
 
 }  // namespace
