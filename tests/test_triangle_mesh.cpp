@@ -227,16 +227,22 @@ TEST(TriangleMesh, ClosestPointIsMinimalOverSamples) {
   }
 }
 
-TEST(TriangleMesh, QueryMatchesBruteForce) {
-  std::mt19937_64 rng(11);
+// 300 random triangles of assorted sizes added to tris (a triangle soup in [0, 3]^3).
+void add_soup(std::vector<RawTriangle>& tris, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0, 1);
-  auto tris = grid(6, 0.5);
-  for (auto& t : roof()) tris.push_back({t.a + Vec3(1.5, 1.5, 0.2), t.b + Vec3(1.5, 1.5, 0.2), t.c + Vec3(1.5, 1.5, 0.2)});
   for (int i = 0; i < 300; ++i) {
     const Vec3 c(3 * u(rng), 3 * u(rng), 3 * u(rng));
     const double s = 0.02 + 0.5 * u(rng) * u(rng);
     tris.push_back({c, c + Vec3(s * u(rng), s * u(rng), s * u(rng)), c + Vec3(-s * u(rng), s * u(rng), -s * u(rng))});
   }
+}
+
+TEST(TriangleMesh, QueryMatchesBruteForce) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  auto tris = grid(6, 0.5);
+  for (auto& t : roof()) tris.push_back({t.a + Vec3(1.5, 1.5, 0.2), t.b + Vec3(1.5, 1.5, 0.2), t.c + Vec3(1.5, 1.5, 0.2)});
+  add_soup(tris, rng);
   const TriangleMesh m(tris, "soup", 0.0);
   std::vector<int32_t> got, want;
   size_t total = 0;
@@ -248,9 +254,45 @@ TEST(TriangleMesh, QueryMatchesBruteForce) {
     for (int32_t t = 0; t < int32_t(m.triangles()); ++t)
       if (m.distance(t, p) < d) want.push_back(t);
     ASSERT_EQ(got, want) << "query " << q;
+    ASSERT_EQ(m.any_within(p, d), !want.empty()) << "query " << q;
     total += got.size();
   }
   EXPECT_GT(total, 2000u);  // the test actually exercised non-empty answers
+}
+
+// query_box: exactly the triangles whose bounding boxes (from their vertices) meet the box, for thin
+// boxes (the vertical segments insertion tests), flat ones and a box around everything.
+TEST(TriangleMesh, QueryBoxMatchesBruteForce) {
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> u(0, 1);
+  auto tris = grid(6, 0.5);
+  add_soup(tris, rng);
+  const TriangleMesh m(tris, "soup", 0.0);
+  std::vector<int32_t> got, want;
+  size_t total = 0;
+  for (int q = 0; q < 2000; ++q) {
+    Vec3 lo(5 * u(rng) - 1, 5 * u(rng) - 1, 5 * u(rng) - 1), hi = lo;
+    if (q % 3 == 0) hi.z += 3 * u(rng);                      // a vertical segment
+    else if (q % 3 == 1) hi += Vec3(u(rng), u(rng), 0.0);    // a flat box
+    else hi += Vec3(0.3 * u(rng), 0.3 * u(rng), 0.3 * u(rng));
+    if (q == 0) lo = {-10, -10, -10}, hi = {10, 10, 10};
+    m.query_box(lo, hi, got);
+    std::sort(got.begin(), got.end());
+    want.clear();
+    for (int32_t t = 0; t < int32_t(m.triangles()); ++t) {
+      const auto v = m.triangle_vertices(t);
+      bool meets = true;
+      for (int a = 0; a < 3; ++a) {
+        const double mn = std::min({m.vertex(v[0])[a], m.vertex(v[1])[a], m.vertex(v[2])[a]});
+        const double mx = std::max({m.vertex(v[0])[a], m.vertex(v[1])[a], m.vertex(v[2])[a]});
+        meets = meets && mx >= lo[a] && mn <= hi[a];
+      }
+      if (meets) want.push_back(t);
+    }
+    ASSERT_EQ(got, want) << "box " << q;
+    total += got.size();
+  }
+  EXPECT_GT(total, m.triangles() + 200);  // besides the box around everything, non-empty answers
 }
 
 TEST(Contacts, FaceInteriorGivesOneContact) {

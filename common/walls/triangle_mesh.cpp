@@ -278,36 +278,64 @@ TriangleMesh::Hit TriangleMesh::classify(int32_t tri, const Vec3& p) const {
   return {face_key(uint32_t(tri)), std::abs(s), p - t.n * s, 1};
 }
 
-void TriangleMesh::query(const Vec3& p, double d, std::vector<int32_t>& out) const {
-  out.clear();
-  if (!(d > 0)) return;
-  int32_t lo[3], hi[3];
+template <class Visit>
+bool TriangleMesh::visit_box(const Vec3& lo, const Vec3& hi, Visit&& visit) const {
+  int32_t c0[3], c1[3];
   for (int a = 0; a < 3; ++a) {
-    if (p[a] + d < bmin_[a] || p[a] - d > bmax_[a]) return;
-    const double f0 = std::floor((p[a] - d - grid_lo_[a]) / grid_h_);
-    const double f1 = std::floor((p[a] + d - grid_lo_[a]) / grid_h_);
-    lo[a] = int32_t(std::clamp(f0, 0.0, double(grid_n_[a] - 1)));
-    hi[a] = int32_t(std::clamp(f1, 0.0, double(grid_n_[a] - 1)));
+    if (hi[a] < bmin_[a] || lo[a] > bmax_[a]) return false;
+    const double f0 = std::floor((lo[a] - grid_lo_[a]) / grid_h_);
+    const double f1 = std::floor((hi[a] - grid_lo_[a]) / grid_h_);
+    c0[a] = int32_t(std::clamp(f0, 0.0, double(grid_n_[a] - 1)));
+    c1[a] = int32_t(std::clamp(f1, 0.0, double(grid_n_[a] - 1)));
   }
-  const double d2 = d * d;
-  for (int32_t k = lo[2]; k <= hi[2]; ++k)
-    for (int32_t j = lo[1]; j <= hi[1]; ++j)
-      for (int32_t i = lo[0]; i <= hi[0]; ++i) {
+  for (int32_t k = c0[2]; k <= c1[2]; ++k)
+    for (int32_t j = c0[1]; j <= c1[1]; ++j)
+      for (int32_t i = c0[0]; i <= c1[0]; ++i) {
         const size_t c = (size_t(k) * grid_n_[1] + j) * grid_n_[0] + i;
         const int32_t cell[3] = {i, j, k};
         for (int32_t s = grid_start_[c]; s < grid_start_[c + 1]; ++s) {
           const int32_t t = grid_tris_[size_t(s)];
-          // Visit each triangle once: in the first cell of (its cells) ∩ (query cells).
+          // Visit each triangle once: in the first cell of (its cells) ∩ (the box's cells).
           const Tri& tr = tri_[size_t(t)];
           bool first = true;
-          for (int a = 0; a < 3; ++a) first = first && std::max(tr.cell_lo[a], lo[a]) == cell[a];
+          for (int a = 0; a < 3; ++a) first = first && std::max(tr.cell_lo[a], c0[a]) == cell[a];
           if (!first) continue;
-          const Vec3 gap = vmax(vmax(tri_lo_[size_t(t)] - p, p - tri_hi_[size_t(t)]), Vec3());
-          if (norm2(gap) >= d2) continue;
-          if (distance(t, p) < d) out.push_back(t);
+          const Vec3& tlo = tri_lo_[size_t(t)];
+          const Vec3& thi = tri_hi_[size_t(t)];
+          if (thi.x < lo.x || thi.y < lo.y || thi.z < lo.z || tlo.x > hi.x || tlo.y > hi.y || tlo.z > hi.z) continue;
+          if (visit(t)) return true;
         }
       }
+  return false;
+}
+
+void TriangleMesh::query(const Vec3& p, double d, std::vector<int32_t>& out) const {
+  out.clear();
+  if (!(d > 0)) return;
+  const double d2 = d * d;
+  visit_box(p - Vec3{d, d, d}, p + Vec3{d, d, d}, [&](int32_t t) {
+    const Vec3 gap = vmax(vmax(tri_lo_[size_t(t)] - p, p - tri_hi_[size_t(t)]), Vec3());
+    if (norm2(gap) < d2 && distance(t, p) < d) out.push_back(t);
+    return false;
+  });
   std::sort(out.begin(), out.end());
+}
+
+bool TriangleMesh::any_within(const Vec3& p, double d) const {
+  if (!(d > 0)) return false;
+  const double d2 = d * d;
+  return visit_box(p - Vec3{d, d, d}, p + Vec3{d, d, d}, [&](int32_t t) {
+    const Vec3 gap = vmax(vmax(tri_lo_[size_t(t)] - p, p - tri_hi_[size_t(t)]), Vec3());
+    return norm2(gap) < d2 && distance(t, p) < d;
+  });
+}
+
+void TriangleMesh::query_box(const Vec3& lo, const Vec3& hi, std::vector<int32_t>& out) const {
+  out.clear();
+  visit_box(lo, hi, [&](int32_t t) {
+    out.push_back(t);
+    return false;
+  });
 }
 
 int TriangleMesh::contacts(const Vec3& p, double r, const int32_t* cand, int ncand, Contact* out,

@@ -59,6 +59,11 @@ class TriangleMesh {
 
   // Every triangle whose distance to p is < d, ascending. `out` is cleared first.
   void query(const Vec3& p, double d, std::vector<int32_t>& out) const;
+  // Whether some triangle is closer to p than d (query() without the list).
+  bool any_within(const Vec3& p, double d) const;
+  // Every triangle whose bounding box meets the box [lo, hi], in no particular order: the candidates
+  // of a segment test. `out` is cleared first.
+  void query_box(const Vec3& lo, const Vec3& hi, std::vector<int32_t>& out) const;
 
   struct Contact {
     Vec3 point;        // closest point on the mesh surface
@@ -96,6 +101,10 @@ class TriangleMesh {
   // Closest point of t to p, its Voronoi region and barycentric coordinates.
   static Vec3 closest(const Tri& t, const Vec3& p, Region& region, double bary[3]);
   Hit classify(int32_t tri, const Vec3& p) const;
+  // visit(t) for each triangle whose bounding box meets [lo, hi], once, until it returns true;
+  // returns whether one did.
+  template <class Visit>
+  bool visit_box(const Vec3& lo, const Vec3& hi, Visit&& visit) const;
   // The constructor's steps: welded vertices and measured triangles, then the edge and vertex topology.
   void weld_and_measure(const std::vector<RawTriangle>& tris, double weld_tolerance);
   void build_topology();

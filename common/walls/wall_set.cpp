@@ -117,12 +117,8 @@ bool WallSet::touches(const Vec3& x, double r) const {
     if (!info_[static_cast<size_t>(analytic_wall_[static_cast<size_t>(k)])].active) continue;
     if (analytic_[static_cast<size_t>(k)].closest(x, g) && g.dist < r) return true;
   }
-  thread_local std::vector<int32_t> tris;  // SSI asks this for every candidate: no allocation per call
-  for (const auto& in : info_) {
-    if (!in.is_mesh || !in.active) continue;
-    meshes_[static_cast<size_t>(in.mesh)]->query(x, r, tris);
-    if (!tris.empty()) return true;
-  }
+  for (const auto& in : info_)
+    if (in.is_mesh && in.active && meshes_[static_cast<size_t>(in.mesh)]->any_within(x, r)) return true;
   return false;
 }
 
@@ -155,12 +151,16 @@ bool WallSet::crosses(const Vec3& a, const Vec3& b) const {
     }
     if (segment_crosses_revolution(w.rev, a, b)) return true;
   }
-  std::vector<int32_t> tris;
-  const Vec3 mid = 0.5 * (a + b);
+  // Only triangles whose boxes meet the segment's (widened by a rounding margin) can be hit: for the
+  // insertion's vertical segments a thin column, where a sphere about the midpoint held most of a silo.
+  thread_local std::vector<int32_t> tris;  // insertion asks this for every candidate: no allocation per call
+  const Vec3 margin{1e-9 * len, 1e-9 * len, 1e-9 * len};
+  const Vec3 lo = Vec3{std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)} - margin;
+  const Vec3 hi = Vec3{std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)} + margin;
   for (const auto& in : info_) {
     if (!in.is_mesh || !in.active) continue;
     const TriangleMesh& m = *meshes_[static_cast<size_t>(in.mesh)];
-    m.query(mid, 0.5 * len * 1.0001, tris);
+    m.query_box(lo, hi, tris);
     for (int32_t t : tris) {
       const auto v = m.triangle_vertices(t);
       if (segment_hits_triangle(a, b, m.vertex(v[0]), m.vertex(v[1]), m.vertex(v[2]))) return true;
