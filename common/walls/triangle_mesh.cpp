@@ -139,10 +139,12 @@ void TriangleMesh::build_grid() {
     const Vec3 e = tri_hi_[i] - tri_lo_[i];
     hsum += std::max(e.x, std::max(e.y, e.z));
   }
-  // Cells about the mean triangle size, at most ~4 cells per triangle.
+  // Cells of half the mean triangle size, at most ~16 cells per triangle: a query about a particle
+  // near the wall then visits a few triangles per cell (with cells of the whole mean size, finding the
+  // wall candidates took 61 % of the rebuild time while the bench's silo fills; rebuilds 0.65 -> 0.56 s).
   const Vec3 ext = bmax_ - bmin_;
-  double h = std::max(hsum / double(n), 1e-12 * norm(ext));
-  const double max_cells = 4.0 * double(n) + 64.0;
+  double h = std::max(0.5 * hsum / double(n), 1e-12 * norm(ext));
+  const double max_cells = 16.0 * double(n) + 64.0;
   for (;;) {
     double cells = 1.0;
     for (int a = 0; a < 3; ++a) cells *= std::max(1.0, std::ceil(ext[a] / h));
@@ -309,13 +311,21 @@ bool TriangleMesh::visit_box(const Vec3& lo, const Vec3& hi, Visit&& visit) cons
   return false;
 }
 
+bool TriangleMesh::within(int32_t t, const Vec3& p, double d) const {
+  // Cheap bounds first: the distance is at least the gap to the triangle's box and at least the
+  // distance to its plane (with a margin, so that rounding never rejects what the exact test keeps).
+  const Vec3 gap = vmax(vmax(tri_lo_[size_t(t)] - p, p - tri_hi_[size_t(t)]), Vec3());
+  if (norm2(gap) >= d * d) return false;
+  const Tri& tr = tri_[size_t(t)];
+  if (std::abs(dot(p - tr.x[0], tr.n)) > d * (1.0 + 1e-9)) return false;
+  return distance(t, p) < d;
+}
+
 void TriangleMesh::query(const Vec3& p, double d, std::vector<int32_t>& out) const {
   out.clear();
   if (!(d > 0)) return;
-  const double d2 = d * d;
   visit_box(p - Vec3{d, d, d}, p + Vec3{d, d, d}, [&](int32_t t) {
-    const Vec3 gap = vmax(vmax(tri_lo_[size_t(t)] - p, p - tri_hi_[size_t(t)]), Vec3());
-    if (norm2(gap) < d2 && distance(t, p) < d) out.push_back(t);
+    if (within(t, p, d)) out.push_back(t);
     return false;
   });
   std::sort(out.begin(), out.end());
@@ -323,11 +333,7 @@ void TriangleMesh::query(const Vec3& p, double d, std::vector<int32_t>& out) con
 
 bool TriangleMesh::any_within(const Vec3& p, double d) const {
   if (!(d > 0)) return false;
-  const double d2 = d * d;
-  return visit_box(p - Vec3{d, d, d}, p + Vec3{d, d, d}, [&](int32_t t) {
-    const Vec3 gap = vmax(vmax(tri_lo_[size_t(t)] - p, p - tri_hi_[size_t(t)]), Vec3());
-    return norm2(gap) < d2 && distance(t, p) < d;
-  });
+  return visit_box(p - Vec3{d, d, d}, p + Vec3{d, d, d}, [&](int32_t t) { return within(t, p, d); });
 }
 
 void TriangleMesh::query_box(const Vec3& lo, const Vec3& hi, std::vector<int32_t>& out) const {

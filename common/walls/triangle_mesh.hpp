@@ -101,6 +101,7 @@ class TriangleMesh {
   // Closest point of t to p, its Voronoi region and barycentric coordinates.
   static Vec3 closest(const Tri& t, const Vec3& p, Region& region, double bary[3]);
   Hit classify(int32_t tri, const Vec3& p) const;
+  bool within(int32_t tri, const Vec3& p, double d) const;  // distance(tri, p) < d
   // visit(t) for each triangle whose bounding box meets [lo, hi], once, until it returns true;
   // returns whether one did.
   template <class Visit>
