@@ -101,6 +101,7 @@ void TriangleMesh::weld_and_measure(const std::vector<RawTriangle>& tris, double
     for (int k = 0; k < 3; ++k) {
       t.h[k] = area2 / t.len[k];
       t.tole[k] = kClassTol * t.len[k];
+      t.m[k] = cross(t.n, t.x[(k + 1) % 3] - t.x[k]) / t.len[k];
     }
   }
 }
@@ -356,13 +357,18 @@ int TriangleMesh::contacts(const Vec3& p, double r, const int32_t* cand, int nca
     if (big.size() < size_t(ncand)) big.resize(size_t(ncand));
     hits = big.data();
   }
-  // A triangle whose plane is farther than r cannot touch (its distance is at
-  // least the plane's); it is not classified. The margin keeps rounding from
-  // deciding a contact the full test would find.
+  // A triangle that is surely farther than r is not classified: its distance is at least
+  // sqrt(plane distance^2 + o^2), o the distance of p's projection outside the farthest edge line
+  // (the triangle lies inside all three). The margin keeps rounding from deciding a contact the
+  // full test would find. (A sphere on one half of a split quad is beyond the other half's
+  // diagonal: that half was classified at every step before.)
   const double r_far = r * (1.0 + 1e-9);
   for (int i = 0; i < ncand; ++i) {
     const Tri& t = tri_[size_t(cand[i])];
-    if (std::abs(dot(p - t.x[0], t.n)) > r_far)
+    const double plane = dot(p - t.x[0], t.n);
+    double out = 0.0;
+    for (int k = 0; k < 3; ++k) out = std::max(out, -dot(p - t.x[k], t.m[k]));
+    if (plane * plane + out * out > r_far * r_far)
       new (&hits[i]) Hit{face_key(uint32_t(cand[i])), std::numeric_limits<double>::infinity(), Vec3{}, 1};
     else
       new (&hits[i]) Hit(classify(cand[i], p));

@@ -87,6 +87,7 @@ class TriangleMesh {
     double h[3];             // 2 * area / |edge k|: distance of the opposite vertex to edge k
     double tole[3];          // classification tolerance of edge k (relative to its length)
     double tolv[3];          // classification tolerance of vertex k
+    Vec3 m[3];               // unit in-plane normal of edge k, pointing into the triangle
     double scale;            // longest edge
     int32_t cell_lo[3];      // first grid cell of the bounding box
   };
