@@ -366,9 +366,13 @@ int TriangleMesh::contacts(const Vec3& p, double r, const int32_t* cand, int nca
   for (int i = 0; i < ncand; ++i) {
     const Tri& t = tri_[size_t(cand[i])];
     const double plane = dot(p - t.x[0], t.n);
-    double out = 0.0;
-    for (int k = 0; k < 3; ++k) out = std::max(out, -dot(p - t.x[k], t.m[k]));
-    if (plane * plane + out * out > r_far * r_far)
+    bool far = std::abs(plane) > r_far;  // the plane alone first: most candidates end here
+    if (!far) {
+      double out = 0.0;
+      for (int k = 0; k < 3; ++k) out = std::max(out, -dot(p - t.x[k], t.m[k]));
+      far = plane * plane + out * out > r_far * r_far;
+    }
+    if (far)
       new (&hits[i]) Hit{face_key(uint32_t(cand[i])), std::numeric_limits<double>::infinity(), Vec3{}, 1};
     else
       new (&hits[i]) Hit(classify(cand[i], p));
