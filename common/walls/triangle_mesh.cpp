@@ -132,6 +132,8 @@ void TriangleMesh::build_grid() {
   const size_t n = tri_.size();
   tri_lo_.resize(n);
   tri_hi_.resize(n);
+  plane_.resize(n);
+  for (size_t i = 0; i < n; ++i) plane_[i] = {tri_[i].n, dot(tri_[i].x[0], tri_[i].n)};
   double hsum = 0.0;
   for (size_t i = 0; i < n; ++i) {
     const Tri& t = tri_[i];
@@ -317,8 +319,7 @@ bool TriangleMesh::within(int32_t t, const Vec3& p, double d) const {
   // distance to its plane (with a margin, so that rounding never rejects what the exact test keeps).
   const Vec3 gap = vmax(vmax(tri_lo_[size_t(t)] - p, p - tri_hi_[size_t(t)]), Vec3());
   if (norm2(gap) >= d * d) return false;
-  const Tri& tr = tri_[size_t(t)];
-  if (std::abs(dot(p - tr.x[0], tr.n)) > d * (1.0 + 1e-9)) return false;
+  if (std::abs(plane_[size_t(t)].distance(p)) > d * (1.0 + 1e-9)) return false;
   return distance(t, p) < d;
 }
 
@@ -364,10 +365,10 @@ int TriangleMesh::contacts(const Vec3& p, double r, const int32_t* cand, int nca
   // diagonal: that half was classified at every step before.)
   const double r_far = r * (1.0 + 1e-9);
   for (int i = 0; i < ncand; ++i) {
-    const Tri& t = tri_[size_t(cand[i])];
-    const double plane = dot(p - t.x[0], t.n);
+    const double plane = plane_[size_t(cand[i])].distance(p);
     bool far = std::abs(plane) > r_far;  // the plane alone first: most candidates end here
     if (!far) {
+      const Tri& t = tri_[size_t(cand[i])];
       double out = 0.0;
       for (int k = 0; k < 3; ++k) out = std::max(out, -dot(p - t.x[k], t.m[k]));
       far = plane * plane + out * out > r_far * r_far;

@@ -123,6 +123,14 @@ class TriangleMesh {
   int32_t grid_n_[3] = {1, 1, 1};
   std::vector<int32_t> grid_start_, grid_tris_;
   std::vector<Vec3> tri_lo_, tri_hi_;  // triangle bounding boxes
+  // Each triangle's plane n.x = d, apart from the large Tri records: the pre-tests reject most
+  // candidates with this one line (the records of a 4,000-triangle silo do not fit in L2).
+  struct Plane {
+    Vec3 n;
+    double d;
+    double distance(const Vec3& p) const { return dot(p, n) - d; }
+  };
+  std::vector<Plane> plane_;
 };
 
 }  // namespace mlcg
