@@ -238,4 +238,9 @@ RunMetrics parse_liggghts(const fs::path& log, const fs::path& console_log, int 
   return m;
 }
 
+std::string fmt_num(double x, const char* spec) {
+  return std::isnan(x) ? "-" : fmt::format(fmt::runtime(spec), x);
+}
+std::string fmt_pct(double x) { return std::isnan(x) ? "-" : fmt::format("{:.1f}%", 100.0 * x); }
+
 }  // namespace mlcg::bench

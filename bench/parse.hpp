@@ -54,6 +54,10 @@ RunMetrics parse_liggghts(const std::filesystem::path& log, const std::filesyste
 // The median of the values that are not NaN (NaN when none is).
 double median(std::vector<double> v);
 
+// A number for a table, or "-" for NaN; a fraction as a percentage ("12.3%"), or "-".
+std::string fmt_num(double x, const char* spec = "{:.3g}");
+std::string fmt_pct(double x);
+
 // First line of `file` that contains `needle` (trimmed), or "".
 std::string first_line_with(const std::filesystem::path& file, const std::string& needle);
 

@@ -14,11 +14,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string num_or_dash(double x, const char* spec) {
-  return std::isnan(x) ? "-" : fmt::format(fmt::runtime(spec), x);
-}
-std::string pct_or_dash(double x) { return std::isnan(x) ? "-" : fmt::format("{:.1f}%", 100.0 * x); }
-
 // One run on `ranks` ranks (repeat `rep`); its metrics, or an error in m.error.
 RunMetrics measure_once(const BenchParams& p, const PourOptions& o, int ranks, int rep, long steps) {
   const fs::path dir = o.work / "runs" / "pour";
@@ -36,8 +31,8 @@ RunMetrics measure_once(const BenchParams& p, const PourOptions& o, int ranks, i
   m.warnings = pour_problems(m, steps);
   say(fmt::format("{:.1f} s, {:.3g} particle-steps/s per core, {} particles, rebuilds {} of the time; other processes "
                   "kept {} core(s) busy",
-                  m.loop_seconds, m.rate / ranks, m.particles_end, pct_or_dash(m.share[1]),
-                  num_or_dash(m.background_cores, "{:.2f}")));
+                  m.loop_seconds, m.rate / ranks, m.particles_end, fmt_pct(m.share[1]),
+                  fmt_num(m.background_cores, "{:.2f}")));
   return m;
 }
 
@@ -52,10 +47,10 @@ void print_table(const BenchParams& p, const PourOptions& o, const PourRows& row
   say(std::string(head.size(), '-'));
   for (const auto& [r, row] : rows)
     say(row.error.empty()
-            ? fmt::format("{:>6}{:>14}{:>8}{:>8}{:>10}{:>8}{:>11}{:>11}", r, num_or_dash(row.per_core, "{:.3g}"),
-                          pct_or_dash(row.spread), num_or_dash(row.busy, "{:.2f}"), pct_or_dash(row.rebuild_share),
-                          pct_or_dash(row.insert_share), row.particles_end,
-                          num_or_dash(row.rebuilds_per_1000, "{:.2f}"))
+            ? fmt::format("{:>6}{:>14}{:>8}{:>8}{:>10}{:>8}{:>11}{:>11}", r, fmt_num(row.per_core, "{:.3g}"),
+                          fmt_pct(row.spread), fmt_num(row.busy, "{:.2f}"), fmt_pct(row.rebuild_share),
+                          fmt_pct(row.insert_share), row.particles_end,
+                          fmt_num(row.rebuilds_per_1000, "{:.2f}"))
             : fmt::format("{:>6}  unavailable: {}", r, row.error));
   say("time breakdown of the median run:");
   for (const auto& [r, row] : rows)

@@ -123,4 +123,11 @@ std::vector<std::string> mpirun_prefix(const fs::path& mpirun, int ranks) {
   return a;
 }
 
+std::string load_average() {
+  std::ifstream in("/proc/loadavg");
+  std::string a = "?", b = "?", c = "?";
+  in >> a >> b >> c;
+  return a + " " + b + " " + c;
+}
+
 }  // namespace mlcg::bench

@@ -33,4 +33,7 @@ std::filesystem::path own_directory();
 // `mpirun -np N` with the flags needed here (root, more ranks than cores).
 std::vector<std::string> mpirun_prefix(const std::filesystem::path& mpirun, int ranks);
 
+// /proc/loadavg's 1, 5 and 15 minute figures, as text ("? ? ?" where unreadable).
+std::string load_average();
+
 }  // namespace mlcg::bench
