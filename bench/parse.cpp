@@ -238,6 +238,21 @@ RunMetrics parse_liggghts(const fs::path& log, const fs::path& console_log, int 
   return m;
 }
 
+const RunMetrics& median_run(const std::vector<RunMetrics>& runs) {
+  const double rate = median_of(runs, [](const RunMetrics& m) { return m.rate; });
+  const RunMetrics* mid = &runs.front();
+  for (const auto& m : runs)
+    if (std::abs(m.rate - rate) < std::abs(mid->rate - rate)) mid = &m;
+  return *mid;
+}
+
+double rate_spread(const std::vector<RunMetrics>& runs) {
+  if (runs.size() < 2) return kNaN;
+  double lo = 1e300, hi = -1e300;
+  for (const auto& m : runs) lo = std::min(lo, m.rate), hi = std::max(hi, m.rate);
+  return (hi - lo) / median_of(runs, [](const RunMetrics& m) { return m.rate; });
+}
+
 std::string fmt_num(double x, const char* spec) {
   return std::isnan(x) ? "-" : fmt::format(fmt::runtime(spec), x);
 }

@@ -54,6 +54,18 @@ RunMetrics parse_liggghts(const std::filesystem::path& log, const std::filesyste
 // The median of the values that are not NaN (NaN when none is).
 double median(std::vector<double> v);
 
+// Over the repeats of one configuration (not empty): the median of f(run); the run whose rate is
+// closest to the median rate (the one whose details a table shows); (max - min) / median of the
+// rates (NaN for a single run).
+template <class F>
+double median_of(const std::vector<RunMetrics>& runs, F f) {
+  std::vector<double> v;
+  for (const auto& m : runs) v.push_back(f(m));
+  return median(v);
+}
+const RunMetrics& median_run(const std::vector<RunMetrics>& runs);
+double rate_spread(const std::vector<RunMetrics>& runs);
+
 // A number for a table, or "-" for NaN; a fraction as a percentage ("12.3%"), or "-".
 std::string fmt_num(double x, const char* spec = "{:.3g}");
 std::string fmt_pct(double x);

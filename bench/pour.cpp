@@ -82,20 +82,11 @@ PourRow summarise_pour(const std::vector<RunMetrics>& runs) {
     row.error = "not run";
     return row;
   }
-  auto med = [&](auto f) {
-    std::vector<double> v;
-    for (const auto& m : runs) v.push_back(f(m));
-    return median(v);
-  };
+  auto med = [&](auto f) { return median_of(runs, f); };
   const double rate = med([](const RunMetrics& m) { return m.rate / m.ranks; });
-  double lo = 1e300, hi = -1e300;
-  const RunMetrics* mid = &runs.front();
-  for (const auto& m : runs) {
-    lo = std::min(lo, m.rate / m.ranks), hi = std::max(hi, m.rate / m.ranks);
-    if (std::abs(m.rate / m.ranks - rate) < std::abs(mid->rate / mid->ranks - rate)) mid = &m;
-  }
+  const RunMetrics* mid = &median_run(runs);
   row.per_core = rate;
-  row.spread = runs.size() > 1 ? (hi - lo) / rate : kNaN;
+  row.spread = rate_spread(runs);
   row.busy = med([](const RunMetrics& m) { return m.background_cores; });
   row.rebuild_share = med([](const RunMetrics& m) { return m.share[1]; });
   row.insert_share = med([](const RunMetrics& m) { return m.insert_share; });

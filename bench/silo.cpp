@@ -81,29 +81,21 @@ RunMetrics run_config(const SiloOptions& o, const Config& c, int rep) {
   const fs::path scene_dir = o.work / "runs" / scene_name(c.scene);
   const std::string tag = fmt::format("{}_r{}_{}", c.code == Code::Mlcg ? "mlcg" : "liggghts", c.ranks, rep);
   const fs::path run_dir = scene_dir / tag;
+  if (c.code == Code::Mlcg)
+    return run_mlcg(o.dem_level, o.mpirun.value_or(fs::path()), c.ranks,
+                    scene_dir / fmt::format("mlcg_r{}.toml", c.ranks), run_dir);
   fs::remove_all(run_dir);
   fs::create_directories(run_dir);
   const fs::path console = run_dir / "console.txt";
   std::vector<std::string> cmd;
   if (c.ranks > 1) cmd = mpirun_prefix(*o.mpirun, c.ranks);
-  RunMetrics m;
-  if (c.code == Code::Mlcg) {
-    for (const auto& a : std::vector<std::string>{o.dem_level.string(),
-                                                  (scene_dir / fmt::format("mlcg_r{}.toml", c.ranks)).string(),
-                                                  "--out", run_dir.string(), "--quiet"})
-      cmd.push_back(a);
-    const auto r = run_process(cmd, run_dir, console);
-    m = parse_mlcg(run_dir, console, r.exit_code);
-    if (r.background_cores() >= 0) m.background_cores = r.background_cores();
-  } else {
-    for (const auto& a : std::vector<std::string>{
-             o.liggghts->string(), "-in", (scene_dir / fmt::format("liggghts_r{}.in", c.ranks)).string(), "-log",
-             (run_dir / "log.liggghts").string(), "-echo", "none"})
-      cmd.push_back(a);
-    const auto r = run_process(cmd, run_dir, console);
-    m = parse_liggghts(run_dir / "log.liggghts", console, r.exit_code);
-    if (r.background_cores() >= 0) m.background_cores = r.background_cores();
-  }
+  for (const auto& a : std::vector<std::string>{
+           o.liggghts->string(), "-in", (scene_dir / fmt::format("liggghts_r{}.in", c.ranks)).string(), "-log",
+           (run_dir / "log.liggghts").string(), "-echo", "none"})
+    cmd.push_back(a);
+  const auto r = run_process(cmd, run_dir, console);
+  RunMetrics m = parse_liggghts(run_dir / "log.liggghts", console, r.exit_code);
+  if (r.background_cores() >= 0) m.background_cores = r.background_cores();
   return m;
 }
 
@@ -174,27 +166,19 @@ void add_suspicious(const Config& c, const std::vector<RunMetrics>& runs, size_t
 
 // Configuration c's table row (medians) and the details of its median-rate run; its per-core rate.
 double table_row(const Config& c, const std::vector<RunMetrics>& runs, std::string& row, std::string& detail) {
-  auto med = [&](auto f) {
-    std::vector<double> v;
-    for (const auto& m : runs) v.push_back(f(m));
-    return median(v);
-  };
+  auto med = [&](auto f) { return median_of(runs, f); };
   const int r = c.ranks;
   const double rate = med([](const RunMetrics& m) { return m.rate; });
-  double lo = 1e300, hi = -1e300;
-  for (const auto& m : runs) lo = std::min(lo, m.rate), hi = std::max(hi, m.rate);
   double share[5];
   for (int q = 0; q < 5; ++q) share[q] = med([q](const RunMetrics& m) { return m.share[q]; });
   row = fmt::format("{:<9}{:>6}{:>18}{:>12}{:>8}{:>8}{:>10}{:>10}{:>10}{:>8}{:>8}{:>8}{:>8}{:>8}", code_name(c.code), r,
-                    fmt_num(rate), fmt_num(rate / r), fmt_pct(runs.size() > 1 ? (hi - lo) / rate : kNaN),
+                    fmt_num(rate), fmt_num(rate / r), fmt_pct(rate_spread(runs)),
                     fmt_num(med([](const RunMetrics& m) { return m.background_cores; }), "{:.2f}"),
                     fmt_num(med([](const RunMetrics& m) { return m.neighbours; }), "{:.2f}"),
                     fmt_num(med([](const RunMetrics& m) { return m.rebuilds_per_1000; }), "{:.2f}"),
                     fmt_num(med([](const RunMetrics& m) { return m.bytes_per_particle; }), "{:.0f}"), fmt_pct(share[0]),
                     fmt_pct(share[1]), fmt_pct(share[2]), fmt_pct(share[3]), fmt_pct(share[4]));
-  const RunMetrics* mid = &runs.front();
-  for (const auto& m : runs)
-    if (std::abs(m.rate - rate) < std::abs(mid->rate - rate)) mid = &m;
+  const RunMetrics* mid = &median_run(runs);
   detail = fmt::format("  {} {} rank{}: {}; particles {} -> {}; final kinetic energy {:.3g} J{}", code_name(c.code), r,
                        r > 1 ? "s" : "", mid->breakdown, mid->particles, mid->particles_end,
                        mid->final_kinetic_energy,
