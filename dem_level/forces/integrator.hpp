@@ -49,26 +49,6 @@ FirstHalf first_half(size_t n, double dt, const Vec3& g, double* __restrict x, d
   return {sum, disp2};
 }
 
-}  // namespace integrator_detail
-
-// The first half, fused with the start of the next force computation (f = m g,
-// torque = 0) and the neighbour list's displacement test against x_ref, so the
-// particle arrays are walked once instead of three times per step.
-inline FirstHalf integrate_first_half(Particles& p, double dt, const Vec3& g, const Vec3* x_ref) {
-  const size_t n = p.n_local();
-  if (n == 0) return {0.0, 0.0};
-  auto flat = [](std::vector<Vec3>& a) { return &a[0].x; };
-  if (x_ref)
-    return integrator_detail::first_half<true>(n, dt, g, flat(p.x), flat(p.v), flat(p.omega), flat(p.f),
-                                               flat(p.torque), p.inv_mass.data(), p.inv_inertia.data(),
-                                               p.mass.data(), &x_ref[0].x);
-  return integrator_detail::first_half<false>(n, dt, g, flat(p.x), flat(p.v), flat(p.omega), flat(p.f),
-                                              flat(p.torque), p.inv_mass.data(), p.inv_inertia.data(),
-                                              p.mass.data(), nullptr);
-}
-
-namespace integrator_detail {
-
 inline double second_half(size_t n, double dt, double* __restrict v, double* __restrict w,
                           const double* __restrict f, const double* __restrict t,
                           const double* __restrict inv_mass, const double* __restrict inv_inertia) {
@@ -88,13 +68,33 @@ inline double second_half(size_t n, double dt, double* __restrict v, double* __r
   return sum;
 }
 
+// A Vec3 array as its doubles (x0 y0 z0 x1 ...); only for a non-empty array.
+inline double* flat(std::vector<Vec3>& a) { return &a[0].x; }
+
 }  // namespace integrator_detail
+
+// The first half, fused with the start of the next force computation (f = m g,
+// torque = 0) and the neighbour list's displacement test against x_ref, so the
+// particle arrays are walked once instead of three times per step.
+inline FirstHalf integrate_first_half(Particles& p, double dt, const Vec3& g, const Vec3* x_ref) {
+  using integrator_detail::flat;
+  const size_t n = p.n_local();
+  if (n == 0) return {0.0, 0.0};
+  if (x_ref)
+    return integrator_detail::first_half<true>(n, dt, g, flat(p.x), flat(p.v), flat(p.omega), flat(p.f),
+                                               flat(p.torque), p.inv_mass.data(), p.inv_inertia.data(),
+                                               p.mass.data(), &x_ref[0].x);
+  return integrator_detail::first_half<false>(n, dt, g, flat(p.x), flat(p.v), flat(p.omega), flat(p.f),
+                                              flat(p.torque), p.inv_mass.data(), p.inv_inertia.data(),
+                                              p.mass.data(), nullptr);
+}
 
 // The checksum as the first half's (finite exactly when every new velocity and spin is).
 inline double integrate_second_half(Particles& p, double dt) {
+  using integrator_detail::flat;
   const size_t n = p.n_local();
   if (n == 0) return 0.0;
-  return integrator_detail::second_half(n, dt, &p.v[0].x, &p.omega[0].x, &p.f[0].x, &p.torque[0].x,
+  return integrator_detail::second_half(n, dt, flat(p.v), flat(p.omega), flat(p.f), flat(p.torque),
                                         p.inv_mass.data(), p.inv_inertia.data());
 }
 

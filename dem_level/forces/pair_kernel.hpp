@@ -144,7 +144,8 @@ inline constexpr size_t kPrefetchAbove = 100000;
 
 namespace pair_detail {
 
-// 1a. The touching pairs of particles [i0, i1), as (i, k) in list order; returns their count.
+// 1a. The touching pairs of particles [i0, i1), as (i, j, k) in list order with x_i - x_j and r_j (which the
+// gather would otherwise load again); returns their count.
 // Branch-free: whether a listed pair touches is unpredictable, so every pair is written to the next
 // slot and the slot only advances if it touches. A listed pair that does not touch costs one test.
 MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t i0, size_t i1, ContactBlock& b) {
