@@ -21,18 +21,7 @@ using namespace case_parser_test;
 // ---- valid input ----------------------------------------------------------------
 
 // Only the required keys.
-const char* const kMinimalCase = R"(
-[[materials]]
-name = "m"
-youngs_modulus = 1e7
-poisson_ratio = 0.25
-density = 2000
-
-[[interactions]]
-between = ["m", "m"]
-restitution = 1
-friction = 0
-
+const std::string kMinimalCase = one_material("1", "0") + R"(
 [[levels]]
 dt = 2e-6
 

@@ -31,19 +31,7 @@ const std::string& two_levels() {
 
 // A minimal case with the given [[levels]] entries and [coupling] section.
 std::string minimal_with(const std::string& levels, const std::string& coupling) {
-  return R"(
-[[materials]]
-name = "m"
-youngs_modulus = 1e7
-poisson_ratio = 0.25
-density = 2000
-
-[[interactions]]
-between = ["m", "m"]
-restitution = 0.5
-friction = 0.5
-
-)" + levels + R"(
+  return one_material("0.5", "0.5") + "\n" + levels + R"(
 [domain]
 min = [0, 0, 0]
 max = [1, 1, 1]

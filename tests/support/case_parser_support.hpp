@@ -81,4 +81,18 @@ inline void expect_near(const Vec3& a, const Vec3& b) {
 
 inline int fixture_line(const std::string& marker) { return line_at(base(), base().find(marker)); }
 
+// The materials of a minimal case: one material "m", in contact with itself.
+inline std::string one_material(const std::string& restitution, const std::string& friction) {
+  return R"(
+[[materials]]
+name = "m"
+youngs_modulus = 1e7
+poisson_ratio = 0.25
+density = 2000
+
+[[interactions]]
+between = ["m", "m"]
+restitution = )" + restitution + "\nfriction = " + friction + "\n";
+}
+
 }  // namespace case_parser_test
