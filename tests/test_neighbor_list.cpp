@@ -75,7 +75,7 @@ TEST(NeighborList, HistorySurvivesReorderingAndRemoval) {
   for (size_t i = 0; i + 1 < nl.first.size(); ++i)
     for (int32_t k = nl.first[i]; k < nl.first[i + 1]; ++k) {
       const auto j = static_cast<size_t>(nl.neigh[static_cast<size_t>(k)]);
-      nl.hist[static_cast<size_t>(k)] = {static_cast<double>(p.id[i]), static_cast<double>(p.id[j]), 1.0};
+      nl.hist[static_cast<size_t>(k)] = Vec3f({static_cast<double>(p.id[i]), static_cast<double>(p.id[j]), 1.0});
     }
   ContactHistory h;
   nl.save_history(p, h);

@@ -36,4 +36,16 @@ inline double norm(const Vec3& a) { return std::sqrt(norm2(a)); }
 inline Vec3 normalized(const Vec3& a) { return a / norm(a); }
 inline bool finite(const Vec3& a) { return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z); }
 
+// Three floats: storage for state that single precision represents well enough and that is large
+// (the tangential overlap of every listed pair: half the bytes to stream each step). Arithmetic
+// stays in Vec3: a Vec3f widens implicitly and is narrowed only where one is written.
+struct Vec3f {
+  float x = 0.0f, y = 0.0f, z = 0.0f;
+
+  constexpr Vec3f() = default;
+  constexpr explicit Vec3f(const Vec3& v)
+      : x(static_cast<float>(v.x)), y(static_cast<float>(v.y)), z(static_cast<float>(v.z)) {}
+  constexpr operator Vec3() const { return {x, y, z}; }
+};
+
 }  // namespace mlcg

@@ -131,7 +131,7 @@ struct PairArrays {
   Vec3* t;
   const int32_t* first;  // the list's offsets
   const int32_t* neigh;
-  Vec3* hist;            // null without history
+  Vec3f* hist;           // null without history
   int nmat;
   bool uniform;   // one coefficient set for every pair (cix is not written)
   bool prefetch;  // start the partner's loads early (large levels)
@@ -231,7 +231,7 @@ MLCG_INLINE void gather_touching(const PairArrays& a, int32_t nc, ContactBlock& 
 template <class Model>
 MLCG_INLINE void reset_history(const PairArrays& a, size_t i1, size_t i2, int32_t k0) {
   if constexpr (Model::has_history) {
-    std::fill(a.hist + k0, a.hist + a.first[i1], Vec3{});
+    std::fill(a.hist + k0, a.hist + a.first[i1], Vec3f{});
     if (a.prefetch) {
       const char* h0 = reinterpret_cast<const char*>(a.hist + a.first[i1]);
       const char* h1 = reinterpret_cast<const char*>(a.hist + a.first[i2]);
@@ -262,7 +262,7 @@ MLCG_INLINE void scatter_block(const PairArrays& a, int32_t nc, const ContactBlo
       t[i] += roll;
       t[j] -= roll;
     }
-    if constexpr (Model::has_history) a.hist[b.k[c]] = {b.h.x[c], b.h.y[c], b.h.z[c]};
+    if constexpr (Model::has_history) a.hist[b.k[c]] = Vec3f({b.h.x[c], b.h.y[c], b.h.z[c]});
     const double rmin = std::min(b.ri[c], b.rj[c]);
     if (b.delta[c] > worst * rmin) {  // divide only for a new largest overlap
       worst = b.delta[c] / rmin;

@@ -225,7 +225,8 @@ void Level::initial_forces() {
   // (omega dt / 2)^2 of its stored energy, 2 % at 10 steps per contact (cases/stability/overlap_pack.toml).
   // The evaluation leaves the tangential history as it was: step 1 integrates it.
   rebuild();
-  const std::vector<Vec3> pair_hist = state_.nl.hist, wall_hist = state_.walls.hist;
+  const std::vector<Vec3f> pair_hist = state_.nl.hist;
+  const std::vector<Vec3> wall_hist = state_.walls.hist;
   clear_ghost_forces(state_.p);
   stepper_.forces(stepper_.fctx, false);
   state_.nl.hist = pair_hist;

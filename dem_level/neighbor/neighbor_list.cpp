@@ -112,7 +112,7 @@ void NeighborList::build(const Particles& p, bool with_history) {
   // Memory: the list keeps little slack, the bins are only needed while building.
   if (neigh.capacity() > neigh.size() + neigh.size() / 4) neigh.shrink_to_fit();
   if (with_history) {
-    hist.assign(neigh.size(), Vec3{});
+    hist.assign(neigh.size(), Vec3f{});
     if (hist.capacity() > hist.size() + hist.size() / 4) hist.shrink_to_fit();
   } else {
     hist.clear();
@@ -168,7 +168,7 @@ void NeighborList::load_history(const Particles& p, const ContactHistory& in) {
   for (size_t i = 0; i < n_local; ++i) {
     if (i >= in.particles() || in.first[i] == in.first[i + 1]) continue;
     for (int32_t k = first[i]; k < first[i + 1]; ++k)
-      hist[static_cast<size_t>(k)] = in.find(i, p.id[static_cast<size_t>(neigh[static_cast<size_t>(k)])]);
+      hist[static_cast<size_t>(k)] = Vec3f(in.find(i, p.id[static_cast<size_t>(neigh[static_cast<size_t>(k)])]));
   }
 }
 

@@ -45,7 +45,7 @@ class NeighborList {
  public:
   std::vector<int32_t> first{0};  // n_local + 1 offsets into neigh
   std::vector<int32_t> neigh;
-  std::vector<Vec3> hist;         // one per pair when the model keeps history
+  std::vector<Vec3f> hist;        // one per pair when the model keeps history (single precision: see Vec3f)
 
   void set_skin(double skin) { skin_ = skin; }
   double skin() const { return skin_; }
