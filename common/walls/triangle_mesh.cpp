@@ -133,7 +133,12 @@ void TriangleMesh::build_grid() {
   tri_lo_.resize(n);
   tri_hi_.resize(n);
   plane_.resize(n);
-  for (size_t i = 0; i < n; ++i) plane_[i] = {tri_[i].n, dot(tri_[i].x[0], tri_[i].n)};
+  for (size_t i = 0; i < n; ++i) {
+    const Tri& t = tri_[i];
+    plane_[i].n = t.n;
+    plane_[i].d = dot(t.x[0], t.n);
+    for (int k = 0; k < 3; ++k) plane_[i].edge[k] = {t.m[k], dot(t.x[k], t.m[k])};
+  }
   double hsum = 0.0;
   for (size_t i = 0; i < n; ++i) {
     const Tri& t = tri_[i];
@@ -365,12 +370,11 @@ int TriangleMesh::contacts(const Vec3& p, double r, const int32_t* cand, int nca
   // diagonal: that half was classified at every step before.)
   const double r_far = r * (1.0 + 1e-9);
   for (int i = 0; i < ncand; ++i) {
-    const double plane = plane_[size_t(cand[i])].distance(p);
+    const Plane& b = plane_[size_t(cand[i])];
+    const double plane = b.distance(p);
     bool far = std::abs(plane) > r_far;  // the plane alone first: most candidates end here
     if (!far) {
-      const Tri& t = tri_[size_t(cand[i])];
-      double out = 0.0;
-      for (int k = 0; k < 3; ++k) out = std::max(out, -dot(p - t.x[k], t.m[k]));
+      const double out = b.outside(p);
       far = plane * plane + out * out > r_far * r_far;
     }
     if (far)

@@ -173,6 +173,7 @@ void WallSet::build_candidates(const Particles& p, double skin, bool with_histor
   const size_t n = p.n_local();
   first.assign(n + 1, 0);
   prim.clear();
+  near.clear();
   WallGeom g;
   for (size_t i = 0; i < n; ++i) {
     const double reach = p.radius[i] + skin;
@@ -187,6 +188,7 @@ void WallSet::build_candidates(const Particles& p, double skin, bool with_histor
       for (int32_t t : scratch_) prim.push_back(in.prim_begin + t);
     }
     first[i + 1] = static_cast<int32_t>(prim.size());
+    if (first[i + 1] > first[i]) near.push_back(static_cast<int32_t>(i));
   }
   if (with_history) hist.assign(prim.size(), Vec3{});
   else hist.clear();

@@ -77,15 +77,14 @@ void wall_forces(Particles& p, WallSet& ws, const MaterialTable& mt, double dt, 
                  std::vector<Vec3>& wall_force, ContactStats& st) {
   constexpr int kMaxMeshContacts = 16;
   wall_force.assign(ws.walls(), Vec3{});
-  const size_t n = p.n_local();
   const int32_t n_analytic = ws.analytic_count();
   Vec3 dummy{};
   static thread_local std::vector<int32_t> tris;
   TriangleMesh::Contact mc[kMaxMeshContacts];
 
-  for (size_t i = 0; i < n; ++i) {
+  for (const int32_t near : ws.near) {
+    const auto i = static_cast<size_t>(near);
     const int32_t begin = ws.first[i], end = ws.first[i + 1];
-    if (begin == end) continue;
     const Vec3 xi = p.x[i];
     const double ri = p.radius[i];
     const int mi = p.material[i];

@@ -384,7 +384,7 @@ size_t ParticleState::memory_bytes() const {
   size_t b = bytes(p.x) + bytes(p.v) + bytes(p.f) + bytes(p.omega) + bytes(p.torque) + bytes(p.radius) +
              bytes(p.mass) + bytes(p.inv_mass) + bytes(p.inv_inertia) + bytes(p.id) + bytes(p.material);
   b += bytes(nl.first) + bytes(nl.neigh) + bytes(nl.hist) + nl.extra_bytes();
-  b += bytes(walls.first) + bytes(walls.prim) + bytes(walls.hist);
+  b += bytes(walls.first) + bytes(walls.prim) + bytes(walls.hist) + bytes(walls.near);
   b += bytes(pair_hist.first) + bytes(pair_hist.key) + bytes(pair_hist.value);
   b += bytes(wall_hist.first) + bytes(wall_hist.key) + bytes(wall_hist.value);
   b += bytes(stress6);
