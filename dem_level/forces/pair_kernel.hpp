@@ -146,6 +146,7 @@ namespace pair_detail {
 // k0 (the first with first[i + 1] > k0); it is advanced to the owner of k1.
 // Branch-free: whether a listed pair touches is unpredictable, so every pair is written to the next
 // slot and the slot only advances if it touches. A listed pair that does not touch costs one test.
+template <bool Prefetch>
 MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, int32_t k1, ContactBlock& b) {
   const Vec3* __restrict x = a.x;
   const double* __restrict rad = a.rad;
@@ -158,7 +159,7 @@ MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, in
       const auto j = static_cast<size_t>(neigh[k]);
       // The gather and the scatter read and write the partner's other arrays in a moment:
       // start those loads now when they come from memory.
-      if (a.prefetch) {
+      if constexpr (Prefetch) {
         __builtin_prefetch(&a.v[j]);
         __builtin_prefetch(&a.w[j]);
         __builtin_prefetch(&a.mass[j]);
@@ -187,7 +188,7 @@ MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, in
 }
 
 // 1b. What the contact law needs, for the nc touching pairs found.
-template <class Model>
+template <class Model, bool Uniform>
 MLCG_INLINE void gather_touching(const PairArrays& a, int32_t nc, ContactBlock& b) {
   const Vec3* __restrict v = a.v;
   const Vec3* __restrict w = a.w;
@@ -198,7 +199,7 @@ MLCG_INLINE void gather_touching(const PairArrays& a, int32_t nc, ContactBlock& 
     const auto i = static_cast<size_t>(b.i[c]);
     const auto j = static_cast<size_t>(b.j[c]);
     const double ri = rad[i], rj = b.rj[c];
-    if (!a.uniform) b.cix[c] = a.mat[i] * a.nmat + a.mat[j];  // one material: the law never reads it
+    if constexpr (!Uniform) b.cix[c] = a.mat[i] * a.nmat + a.mat[j];  // one material: the law never reads it
     b.ri[c] = ri;
     b.mi[c] = mass[i];
     b.mj[c] = mass[j];
@@ -228,11 +229,11 @@ MLCG_INLINE void gather_touching(const PairArrays& a, int32_t nc, ContactBlock& 
 // The block's history is in the buffers after the gather: it is cleared in the list, and the scatter
 // writes it back for the touching pairs, so the others are reset. Then the next block's history, a
 // stream the law's time hides, is prefetched.
-template <class Model>
+template <class Model, bool Prefetch>
 MLCG_INLINE void reset_history(const PairArrays& a, int32_t k0, int32_t k1, int32_t k2) {
   if constexpr (Model::has_history) {
     std::fill(a.hist + k0, a.hist + k1, Vec3f{});
-    if (a.prefetch) {
+    if constexpr (Prefetch) {
       const char* h1 = reinterpret_cast<const char*>(a.hist + k1);
       const char* h2 = reinterpret_cast<const char*>(a.hist + k2);
       for (const char* c = h1; c < h2; c += 64) __builtin_prefetch(c, 1);
@@ -276,6 +277,27 @@ MLCG_INLINE void scatter_block(const PairArrays& a, int32_t nc, const ContactBlo
   }
 }
 
+// The list in blocks of kBlockPairs listed pairs (a particle's pairs may span two blocks): find, gather,
+// law, scatter. Prefetch and Uniform are chosen once per call, so the block loops test neither.
+// Returns the number of contacts.
+template <class Model, bool Stress, bool Prefetch, bool Uniform>
+int64_t run_blocks(const PairArrays& a, int32_t pairs, const PairCoeffs* coeffs, double dt, double* stress6,
+                   double& worst, int32_t& worst_i) {
+  ContactBlock& b = scratch_contacts();
+  int64_t contacts = 0;
+  size_t i = 0;
+  for (int32_t k0 = 0; k0 < pairs; k0 += kBlockPairs) {
+    const int32_t k1 = std::min(pairs, k0 + kBlockPairs), k2 = std::min(pairs, k1 + kBlockPairs);
+    const int32_t nc = find_touching<Prefetch>(a, i, k0, k1, b);
+    gather_touching<Model, Uniform>(a, nc, b);
+    reset_history<Model, Prefetch>(a, k0, k1, k2);
+    block_contact_forces<Model, Uniform>(b, nc, coeffs, dt);  // 2. the contact law, vectorized
+    scatter_block<Model, Stress>(a, nc, b, stress6, worst, worst_i);
+    contacts += nc;
+  }
+  return contacts;
+}
+
 }  // namespace pair_detail
 
 // stress6: 6 values per particle (only read when Stress).
@@ -291,24 +313,12 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
                      p.mass.data(),  p.material.data(), p.f.data(),   p.torque.data(),
                      nl.first.data(), nl.neigh.data(), Model::has_history ? nl.hist.data() : nullptr,
                      nmat,           nmat == 1 || single >= 0,        p.size() > kPrefetchAbove};
-  ContactBlock& b = scratch_contacts();
   double worst = st.max_overlap_ratio;
   int32_t worst_i = st.worst_particle;
-  int64_t contacts = 0;
-  // Blocks of kBlockPairs listed pairs (a particle's pairs may span two blocks).
-  const int32_t pairs = nl.first[n];
-  size_t i = 0;
-  for (int32_t k0 = 0; k0 < pairs; k0 += kBlockPairs) {
-    const int32_t k1 = std::min(pairs, k0 + kBlockPairs), k2 = std::min(pairs, k1 + kBlockPairs);
-    const int32_t nc = pair_detail::find_touching(a, i, k0, k1, b);
-    pair_detail::gather_touching<Model>(a, nc, b);
-    pair_detail::reset_history<Model>(a, k0, k1, k2);
-    // 2. The contact law, vectorized.
-    if (a.uniform) block_contact_forces<Model, true>(b, nc, coeffs, dt);
-    else block_contact_forces<Model, false>(b, nc, coeffs, dt);
-    pair_detail::scatter_block<Model, Stress>(a, nc, b, stress6, worst, worst_i);
-    contacts += nc;
-  }
+  using pair_detail::run_blocks;
+  const auto run = a.prefetch ? (a.uniform ? &run_blocks<Model, Stress, true, true> : &run_blocks<Model, Stress, true, false>)
+                              : (a.uniform ? &run_blocks<Model, Stress, false, true> : &run_blocks<Model, Stress, false, false>);
+  const int64_t contacts = run(a, nl.first[n], coeffs, dt, stress6, worst, worst_i);
   st.max_overlap_ratio = worst;
   st.worst_particle = worst_i;
   st.pair_contacts += contacts;
