@@ -141,11 +141,12 @@ inline constexpr size_t kPrefetchAbove = 100000;
 
 namespace pair_detail {
 
-// 1a. The touching pairs among listed pairs [k0, k1), as (i, j, k) in list order with x_i - x_j and r_j
-// (which the gather would otherwise load again); returns their count. i is the particle that owns pair
-// k0 (the first with first[i + 1] > k0); it is advanced to the owner of k1.
+// 1a. The touching pairs among listed pairs [k0, k1), as (i, k) in list order with x_i - x_j; returns their
+// count. i is the particle that owns pair k0 (the first with first[i + 1] > k0); it is advanced to the
+// owner of k1.
 // Branch-free: whether a listed pair touches is unpredictable, so every pair is written to the next
-// slot and the slot only advances if it touches. A listed pair that does not touch costs one test.
+// slot and the slot only advances if it touches. A listed pair that does not touch costs one test, and
+// as few stores as possible (j and r_j, cheap to load again for the touching ones, are not kept).
 template <bool Prefetch>
 MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, int32_t k1, ContactBlock& b) {
   const Vec3* __restrict x = a.x;
@@ -170,15 +171,13 @@ MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, in
       const double radsum = ri + rj;
       const Vec3 d = xi - x[j];
       const bool touch = norm2(d) < radsum * radsum;
-      // What the test computed is kept for the gather (written for every pair, kept for the touching).
+      // The slot is written for every pair and kept for the touching.
       const auto c = static_cast<size_t>(nc);
       b.i[c] = static_cast<int32_t>(i);
-      b.j[c] = static_cast<int32_t>(j);
       b.k[c] = k;
       b.d.x[c] = d.x;
       b.d.y[c] = d.y;
       b.d.z[c] = d.z;
-      b.rj[c] = rj;
       nc += touch ? 1 : 0;
     }
   }
@@ -197,8 +196,10 @@ MLCG_INLINE void gather_touching(const PairArrays& a, int32_t nc, ContactBlock& 
   for (int32_t q = 0; q < nc; ++q) {
     const auto c = static_cast<size_t>(q);
     const auto i = static_cast<size_t>(b.i[c]);
-    const auto j = static_cast<size_t>(b.j[c]);
-    const double ri = rad[i], rj = b.rj[c];
+    const auto j = static_cast<size_t>(a.neigh[b.k[c]]);
+    const double ri = rad[i], rj = rad[j];
+    b.j[c] = static_cast<int32_t>(j);
+    b.rj[c] = rj;
     if constexpr (!Uniform) b.cix[c] = a.mat[i] * a.nmat + a.mat[j];  // one material: the law never reads it
     b.ri[c] = ri;
     b.mi[c] = mass[i];
