@@ -21,14 +21,26 @@ struct FirstHalf {
 
 namespace integrator_detail {
 
+// The arrays the integrator walks, as doubles (three per particle for the vectors), from one particle on.
+struct KickArrays {
+  double *x, *v, *w, *f, *t;
+  const double *inv_mass, *inv_inertia, *mass;
+  const double* x_ref;  // positions at the last list build; null without the displacement test
+
+  KickArrays from(size_t i) const {
+    return {x + 3 * i,    v + 3 * i,           w + 3 * i, f + 3 * i, t + 3 * i,
+            inv_mass + i, inv_inertia + i, mass + i,  x_ref ? x_ref + 3 * i : nullptr};
+  }
+};
+
 // The first half over particles [0, n) as flat arrays (three doubles per particle). The checksum's
 // additions may be reordered (omp simd reduction): it is only ever tested for finiteness, which no
 // order changes for positions of simulation size; the largest displacement is exact in any order.
 template <bool WithRef>
-FirstHalf first_half(size_t n, double dt, const Vec3& g, double* __restrict x, double* __restrict v,
-                     double* __restrict w, double* __restrict f, double* __restrict t,
-                     const double* __restrict inv_mass, const double* __restrict inv_inertia,
-                     const double* __restrict mass, const double* __restrict x_ref) {
+FirstHalf first_half(size_t n, double dt, const Vec3& g, const KickArrays& a) {
+  double *__restrict x = a.x, *__restrict v = a.v, *__restrict w = a.w, *__restrict f = a.f, *__restrict t = a.t;
+  const double *__restrict inv_mass = a.inv_mass, *__restrict inv_inertia = a.inv_inertia, *__restrict mass = a.mass,
+               *__restrict x_ref = a.x_ref;
   const double h = 0.5 * dt;
   double sum = 0.0, disp2 = 0.0;
 #pragma omp simd reduction(+ : sum) reduction(max : disp2)
@@ -51,9 +63,10 @@ FirstHalf first_half(size_t n, double dt, const Vec3& g, double* __restrict x, d
   return {sum, disp2};
 }
 
-inline double second_half(size_t n, double dt, double* __restrict v, double* __restrict w,
-                          const double* __restrict f, const double* __restrict t,
-                          const double* __restrict inv_mass, const double* __restrict inv_inertia) {
+inline double second_half(size_t n, double dt, const KickArrays& a) {
+  double *__restrict v = a.v, *__restrict w = a.w;
+  const double *__restrict f = a.f, *__restrict t = a.t, *__restrict inv_mass = a.inv_mass,
+               *__restrict inv_inertia = a.inv_inertia;
   const double h = 0.5 * dt;
   double sum = 0.0;
 #pragma omp simd reduction(+ : sum)
@@ -89,10 +102,10 @@ inline void spread(V8 s, V8 out[3]) {
 }
 
 template <bool WithRef>
-FirstHalf first_half8(size_t n8, double dt, const Vec3& g, double* __restrict x, double* __restrict v,
-                      double* __restrict w, double* __restrict f, double* __restrict t,
-                      const double* __restrict inv_mass, const double* __restrict inv_inertia,
-                      const double* __restrict mass, const double* __restrict x_ref) {
+FirstHalf first_half8(size_t n8, double dt, const Vec3& g, const KickArrays& a) {
+  double *__restrict x = a.x, *__restrict v = a.v, *__restrict w = a.w, *__restrict f = a.f, *__restrict t = a.t;
+  const double *__restrict inv_mass = a.inv_mass, *__restrict inv_inertia = a.inv_inertia, *__restrict mass = a.mass,
+               *__restrict x_ref = a.x_ref;
   const double h = 0.5 * dt;
   const V8 G[3] = {{g.x, g.y, g.z, g.x, g.y, g.z, g.x, g.y},
                    {g.z, g.x, g.y, g.z, g.x, g.y, g.z, g.x},
@@ -137,9 +150,10 @@ FirstHalf first_half8(size_t n8, double dt, const Vec3& g, double* __restrict x,
   return {s, m2};
 }
 
-inline double second_half8(size_t n8, double dt, double* __restrict v, double* __restrict w,
-                           const double* __restrict f, const double* __restrict t,
-                           const double* __restrict inv_mass, const double* __restrict inv_inertia) {
+inline double second_half8(size_t n8, double dt, const KickArrays& a) {
+  double *__restrict v = a.v, *__restrict w = a.w;
+  const double *__restrict f = a.f, *__restrict t = a.t, *__restrict inv_mass = a.inv_mass,
+               *__restrict inv_inertia = a.inv_inertia;
   const double h = 0.5 * dt;
   V8 sum{};
   for (size_t i = 0; i < n8; i += 8) {
@@ -163,6 +177,11 @@ inline double second_half8(size_t n8, double dt, double* __restrict v, double* _
 // A Vec3 array as its doubles (x0 y0 z0 x1 ...); only for a non-empty array.
 inline double* flat(std::vector<Vec3>& a) { return &a[0].x; }
 
+inline KickArrays kick_arrays(Particles& p, const Vec3* x_ref) {
+  return {flat(p.x),        flat(p.v),           flat(p.omega), flat(p.f), flat(p.torque),
+          p.inv_mass.data(), p.inv_inertia.data(), p.mass.data(), x_ref ? &x_ref[0].x : nullptr};
+}
+
 }  // namespace integrator_detail
 
 // The first half, fused with the start of the next force computation (f = m g,
@@ -172,23 +191,12 @@ inline FirstHalf integrate_first_half(Particles& p, double dt, const Vec3& g, co
   using namespace integrator_detail;
   const size_t n = p.n_local();
   if (n == 0) return {0.0, 0.0};
-  const size_t n8 = n - n % 8, o = 3 * n8;
-  double* x = flat(p.x);
-  double* v = flat(p.v);
-  double* w = flat(p.omega);
-  double* f = flat(p.f);
-  double* t = flat(p.torque);
-  const double *im = p.inv_mass.data(), *ii = p.inv_inertia.data(), *m = p.mass.data();
-  FirstHalf a, b;
-  if (x_ref) {
-    const double* r = &x_ref[0].x;
-    a = first_half8<true>(n8, dt, g, x, v, w, f, t, im, ii, m, r);
-    b = first_half<true>(n - n8, dt, g, x + o, v + o, w + o, f + o, t + o, im + n8, ii + n8, m + n8, r + o);
-  } else {
-    a = first_half8<false>(n8, dt, g, x, v, w, f, t, im, ii, m, nullptr);
-    b = first_half<false>(n - n8, dt, g, x + o, v + o, w + o, f + o, t + o, im + n8, ii + n8, m + n8, nullptr);
-  }
-  return {a.checksum + b.checksum, std::max(a.max_disp2, b.max_disp2)};
+  const size_t n8 = n - n % 8;
+  const KickArrays a = kick_arrays(p, x_ref);
+  const FirstHalf head = x_ref ? first_half8<true>(n8, dt, g, a) : first_half8<false>(n8, dt, g, a);
+  const KickArrays rest = a.from(n8);
+  const FirstHalf tail = x_ref ? first_half<true>(n - n8, dt, g, rest) : first_half<false>(n - n8, dt, g, rest);
+  return {head.checksum + tail.checksum, std::max(head.max_disp2, tail.max_disp2)};
 }
 
 // The checksum as the first half's (finite exactly when every new velocity and spin is).
@@ -196,14 +204,9 @@ inline double integrate_second_half(Particles& p, double dt) {
   using namespace integrator_detail;
   const size_t n = p.n_local();
   if (n == 0) return 0.0;
-  const size_t n8 = n - n % 8, o = 3 * n8;
-  double* v = flat(p.v);
-  double* w = flat(p.omega);
-  const double* f = flat(p.f);
-  const double* t = flat(p.torque);
-  const double *im = p.inv_mass.data(), *ii = p.inv_inertia.data();
-  return second_half8(n8, dt, v, w, f, t, im, ii) +
-         second_half(n - n8, dt, v + o, w + o, f + o, t + o, im + n8, ii + n8);
+  const size_t n8 = n - n % 8;
+  const KickArrays a = kick_arrays(p, nullptr);
+  return second_half8(n8, dt, a) + second_half(n - n8, dt, a.from(n8));
 }
 
 // Ghosts carry no force of their own (their owner integrates them); the kernels
