@@ -13,6 +13,9 @@ namespace {
 constexpr double kClassTol = 1e-10;  // feature classification tolerance, relative to edge lengths
 constexpr double kDegenerate = 1e-12;  // |ab x ac| / max_edge^2 below this: zero area
 constexpr double kOnSurface = 1e-10;   // dist / scale below this: centre on the surface
+// A projection this far inside every edge line (relative to the longest edge) is in the face's region with
+// no edge within kClassTol, whatever the rounding of classify's barycentric tests.
+constexpr double kFaceInside = 1e-8;
 constexpr int kStackCandidates = 64;
 
 struct CellKey {
@@ -284,6 +287,11 @@ TriangleMesh::Hit TriangleMesh::classify(int32_t tri, const Vec3& p) const {
     const Vec3& q = t.x[vert];
     return {vertex_key(t.v[vert]), norm(p - q), q, valence_[t.v[vert]]};
   }
+  return face_hit(tri, p);
+}
+
+TriangleMesh::Hit TriangleMesh::face_hit(int32_t tri, const Vec3& p) const {
+  const Tri& t = tri_[size_t(tri)];
   const double s = dot(p - t.x[0], t.n);
   return {face_key(uint32_t(tri)), std::abs(s), p - t.n * s, 1};
 }
@@ -379,6 +387,8 @@ int TriangleMesh::contacts(const Vec3& p, double r, const int32_t* cand, int nca
     }
     if (far)
       new (&hits[i]) Hit{face_key(uint32_t(cand[i])), std::numeric_limits<double>::infinity(), Vec3{}, 1};
+    else if (b.inside(p) > kFaceInside * tri_[size_t(cand[i])].scale)
+      new (&hits[i]) Hit(face_hit(cand[i], p));  // what classify finds there, without its region tests
     else
       new (&hits[i]) Hit(classify(cand[i], p));
   }

@@ -103,6 +103,7 @@ class TriangleMesh {
   // Closest point of t to p, its Voronoi region and barycentric coordinates.
   static Vec3 closest(const Tri& t, const Vec3& p, Region& region, double bary[3]);
   Hit classify(int32_t tri, const Vec3& p) const;
+  Hit face_hit(int32_t tri, const Vec3& p) const;  // p's projection onto the face of tri
   bool within(int32_t tri, const Vec3& p, double d) const;  // distance(tri, p) < d
   // visit(t) for each triangle whose bounding box meets [lo, hi], once, until it returns true;
   // returns whether one did.
@@ -140,6 +141,12 @@ class TriangleMesh {
       double out = 0.0;
       for (const Edge& k : edge) out = std::max(out, k.e - dot(p, k.m));
       return out;
+    }
+    // How far p's projection lies inside the nearest edge line (negative outside the triangle).
+    double inside(const Vec3& p) const {
+      double in = dot(p, edge[0].m) - edge[0].e;
+      for (int k = 1; k < 3; ++k) in = std::min(in, dot(p, edge[k].m) - edge[k].e);
+      return in;
     }
   };
   std::vector<Plane> plane_;
