@@ -381,13 +381,15 @@ int TriangleMesh::contacts(const Vec3& p, double r, const int32_t* cand, int nca
     const Plane& b = plane_[size_t(cand[i])];
     const double plane = b.distance(p);
     bool far = std::abs(plane) > r_far;  // the plane alone first: most candidates end here
+    double inside = 0.0;
     if (!far) {
-      const double out = b.outside(p);
+      inside = b.inside(p);
+      const double out = std::max(0.0, -inside);
       far = plane * plane + out * out > r_far * r_far;
     }
     if (far)
       new (&hits[i]) Hit{face_key(uint32_t(cand[i])), std::numeric_limits<double>::infinity(), Vec3{}, 1};
-    else if (b.inside(p) > kFaceInside * tri_[size_t(cand[i])].scale)
+    else if (inside > kFaceInside * tri_[size_t(cand[i])].scale)
       new (&hits[i]) Hit(face_hit(cand[i], p));  // what classify finds there, without its region tests
     else
       new (&hits[i]) Hit(classify(cand[i], p));

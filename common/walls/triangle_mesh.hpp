@@ -136,13 +136,8 @@ class TriangleMesh {
       double e;
     } edge[3];
     double distance(const Vec3& p) const { return dot(p, n) - d; }
-    // How far p's projection lies outside the farthest edge line (0 inside the triangle).
-    double outside(const Vec3& p) const {
-      double out = 0.0;
-      for (const Edge& k : edge) out = std::max(out, k.e - dot(p, k.m));
-      return out;
-    }
-    // How far p's projection lies inside the nearest edge line (negative outside the triangle).
+    // How far p's projection lies inside the nearest edge line; negative outside the triangle, where
+    // minus it is how far the projection lies outside the farthest edge line.
     double inside(const Vec3& p) const {
       double in = dot(p, edge[0].m) - edge[0].e;
       for (int k = 1; k < 3; ++k) in = std::min(in, dot(p, edge[k].m) - edge[k].e);
