@@ -257,11 +257,11 @@ std::string Level::describe_particle(size_t i) const {
                      state_.p.id[i], state_.p.radius[i], x.x, x.y, x.z, v.x, v.y, v.z, run_.step, time());
 }
 
-std::string Level::non_finite(const char* what) const {
+std::string Level::non_finite(const char* what, uint64_t step) const {
   for (size_t i = 0; i < state_.p.n_local(); ++i)
     if (!finite(state_.p.x[i]) || !finite(state_.p.v[i]) || !finite(state_.p.omega[i]))
       return fmt::format("non-finite {} of {}", what, describe_particle(i));
-  return fmt::format("non-finite {} at step {} (sum overflow)", what, run_.step);
+  return fmt::format("non-finite {} at step {} (sum overflow)", what, step);
 }
 
 void Level::guard(const std::string& local_problem, double badness) {
@@ -276,25 +276,57 @@ void Level::guard(const std::string& local_problem, double badness) {
   throw GuardStop(comm_.bcast(local_problem, at));
 }
 
-void Level::step_once() {
+bool Level::may_owe_kick() const {
+  // Nothing but the next step's first half may come between: no coupler or energy account (they
+  // read and add forces between the halves), no events or insertions (they read speeds, add particles).
+  // The same answer on every rank (settle_kick is collective): the size is the global one.
+  return !coupled_ && !account_ && scene_.events.empty() && scene_.ins.empty() &&
+         stepper_.global_particles > opt_.owed_kick_above * comm_.size();
+}
+
+void Level::pay_owed_kick() {
+  if (!kick_owed_) return;
+  kick_owed_ = false;
+  double sum;
+  {
+    PhaseTimer t(out_.times.integrate);
+    sum = integrate_second_half(state_.p, physics_.dt);
+  }
+  owed_kick_sum_ = sum;
+}
+
+void Level::settle_kick() {
+  if (!kick_owed_) return;
+  pay_owed_kick();
+  guard(std::isfinite(owed_kick_sum_) ? std::string() : non_finite("velocity", run_.step - 1), 2.0);
+}
+
+void Level::step_once() { step(false); }
+
+void Level::step(bool may_owe) {
   if (coupled_) coupling_begin_step();
   pre_step();
-  double sum = 0.0;
+  double sum = 0.0, owed_sum = 0.0;
   bool rebuild_now = stepper_.rebuild_pending;
   {
     PhaseTimer t(out_.times.integrate);
     const Vec3* ref = state_.nl.reference(state_.p);
-    const FirstHalf fh = integrate_first_half(state_.p, physics_.dt, physics_.gravity, ref);
+    const FirstHalf fh = kick_owed_ ? integrate_owed_kick_first_half(state_.p, physics_.dt, physics_.gravity, ref)
+                                    : integrate_first_half(state_.p, physics_.dt, physics_.gravity, ref);
+    kick_owed_ = false;
     sum = fh.checksum;
+    owed_sum = fh.owed_checksum;
     rebuild_now = rebuild_now || !ref || fh.max_disp2 > 0.25 * stepper_.skin * stepper_.skin;
   }
   {
-    // One reduction decides both: does any rank need a rebuild, has any a NaN.
+    // One reduction decides all: does any rank need a rebuild, has any a NaN (the last step's
+    // velocities when their kick was owed, the positions).
     PhaseTimer t(out_.times.comm);
-    double flags[2] = {rebuild_now ? 1.0 : 0.0, std::isfinite(sum) ? 0.0 : 1.0};
-    comm_.max_in_place(flags, 2);
+    double flags[3] = {rebuild_now ? 1.0 : 0.0, std::isfinite(sum) ? 0.0 : 1.0, std::isfinite(owed_sum) ? 0.0 : 1.0};
+    comm_.max_in_place(flags, 3);
     rebuild_now = flags[0] > 0.0;
-    if (flags[1] > 0.0) guard(std::isfinite(sum) ? std::string() : non_finite("position"), 2.0);
+    if (flags[2] > 0.0) guard(std::isfinite(owed_sum) ? std::string() : non_finite("velocity", run_.step - 1), 2.0);
+    if (flags[1] > 0.0) guard(std::isfinite(sum) ? std::string() : non_finite("position", run_.step), 2.0);
     if (!rebuild_now) stepper_.ghosts.forward(comm_, state_.p);
   }
   if (!scene_.probes.empty()) {
@@ -326,12 +358,17 @@ void Level::step_once() {
                           "{}: the time step is too large for this impact or the material too soft",
                           100.0 * st.max_overlap_ratio, 100.0 * cs_.stability.max_overlap_fraction,
                           describe_particle(static_cast<size_t>(st.worst_particle)));
-  {
+  // Within run(), the second half waits for the next step's first half (one pass over the arrays
+  // instead of two) unless something reads the velocities first: settle_kick() pays it then.
+  if (may_owe && may_owe_kick()) {
+    kick_owed_ = true;
+    sum = 0.0;
+  } else {
     PhaseTimer t(out_.times.integrate);
     sum = integrate_second_half(state_.p, physics_.dt);
     if (account_) account_->controller_work(state_.p, physics_.dt);
   }
-  if (problem.empty() && !std::isfinite(sum)) problem = non_finite("velocity");
+  if (problem.empty() && !std::isfinite(sum)) problem = non_finite("velocity", run_.step);
   guard(problem, std::isfinite(sum) ? st.max_overlap_ratio : 2.0);
   ++run_.step;
   ++steps_this_process_;

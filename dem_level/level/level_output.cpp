@@ -91,10 +91,12 @@ RunStatus Level::run() {
         }
         break;
       }
-      step_once();
+      step(true);
       progress(false);
     }
+    settle_kick();
   } catch (const GuardStop& e) {
+    pay_owed_kick();  // the state at the stop is the whole step's
     status = RunStatus::Failed;
     reason = e.what();
     log_->error("STOPPED: {}", reason);
@@ -105,15 +107,18 @@ RunStatus Level::run() {
       log_->error("the state at the stop could not be written: {}", w.what());
     }
   } catch (const StopRequested& e) {
+    pay_owed_kick();
     status = RunStatus::Interrupted;
     reason = e.what();
     log_->warn("{}", reason);
     if (opt_.quiet && comm_.rank() == 0) std::fprintf(stderr, "dem_level: %s\n", reason.c_str());  // not in the log alone
   } catch (const CouplingStop& e) {  // the last checkpoint stays
+    pay_owed_kick();
     status = RunStatus::Failed;
     reason = e.what();
     log_->error("STOPPED: {}", reason);
   } catch (const OutputStop& e) {  // the last checkpoint stays
+    pay_owed_kick();
     status = RunStatus::Failed;
     reason = std::string("cannot write the run's output: ") + e.what();
     output_failed = true;
@@ -186,6 +191,14 @@ void Level::sample_energy() {
 void Level::after_step() {
   const double t = time();
   const double half = 0.5 * physics_.dt;
+  const auto& o = cs_.output;
+  const bool stats_due = o.stats_interval > 0.0 && t >= run_.next_stats - half;
+  const bool snapshot_due = o.snapshot_interval > 0.0 && t >= run_.next_snapshot - half;
+  const bool checkpoint_due = o.checkpoint_interval > 0.0 && t >= run_.next_checkpoint - half;
+  // Every reader of the velocities below settles an owed kick first (grid samples read them too).
+  bool reads = stats_due || snapshot_due || checkpoint_due;
+  for (const auto& g : scene_.grids) reads = reads || run_.step % g.sample_every == 0;
+  if (reads) settle_kick();
   bool grid_output = false;
   if (account_) {
     PhaseTimer measure(out_.times.measure);
@@ -214,17 +227,16 @@ void Level::after_step() {
   }
   PhaseTimer output(out_.times.output);
   if (grid_output) sync_output();
-  const auto& o = cs_.output;
-  if (o.stats_interval > 0.0 && t >= run_.next_stats - half) {
+  if (stats_due) {
     out_.series_rows.push_back(series_row());
     run_.next_stats += o.stats_interval;
   }
-  if (o.snapshot_interval > 0.0 && t >= run_.next_snapshot - half) {
+  if (snapshot_due) {
     write_snapshot();
     ++run_.snapshots;
     run_.next_snapshot += o.snapshot_interval;
   }
-  if (o.checkpoint_interval > 0.0 && t >= run_.next_checkpoint - half) {
+  if (checkpoint_due) {
     run_.next_checkpoint += o.checkpoint_interval;
     if (!opt_.out_dir.empty()) {
       write_checkpoint(opt_.out_dir / "checkpoint.h5");
