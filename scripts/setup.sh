@@ -2,10 +2,12 @@
 # Installs MLCG's dependencies from Debian 12 packages (only those missing)
 # and builds Release into build/ (executables in build/bin/). Safe to re-run.
 #
-#   scripts/setup.sh --with-paraview   also installs ParaView 5.11 for scripts/paraview_check.py and
-#       scripts/render_paraview.py: paraview, python3-paraview (pvpython; only a recommendation of
-#       paraview, which --no-install-recommends leaves out) and xvfb + xauth (Debian's ParaView renders
-#       only through an X server; xvfb-run provides one). Without the option nothing changes.
+# ParaView 5.11 is installed for the paraview_check test (scripts/paraview_check.py through pvpython):
+# paraview and python3-paraview (pvpython; only a recommendation of paraview, which
+# --no-install-recommends leaves out), about 80 MB.
+#
+#   scripts/setup.sh --with-paraview   also installs xvfb + xauth for scripts/render_paraview.py
+#       (Debian's ParaView renders only through an X server; xvfb-run provides one).
 set -e
 cd "$(dirname "$0")/.."
 
@@ -23,8 +25,8 @@ done
 PACKAGES="build-essential cmake libopenmpi-dev openmpi-bin libeigen3-dev libhdf5-dev hdf5-tools \
 libprotobuf-dev protobuf-compiler libzmq3-dev cppzmq-dev libtomlplusplus-dev libcli11-dev \
 libspdlog-dev libfmt-dev libgtest-dev libbenchmark-dev nlohmann-json3-dev python3-h5py python3-matplotlib \
-clang libclang-rt-14-dev iproute2 slurm-wlm munge"
-[ -z "$with_paraview" ] || PACKAGES="$PACKAGES paraview python3-paraview xvfb xauth"
+clang libclang-rt-14-dev iproute2 slurm-wlm munge paraview python3-paraview"
+[ -z "$with_paraview" ] || PACKAGES="$PACKAGES xvfb xauth"
 
 missing=""
 for p in $PACKAGES; do

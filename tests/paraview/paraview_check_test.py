@@ -7,7 +7,7 @@ Runs shortened copies of the quickstart cases in a temporary folder (single leve
 discharge; two levels: 0.15 s), then `pvpython scripts/paraview_check.py` on both run folders, which
 must pass. Then breaks copies of them on purpose, one defect each, and asserts that the check exits 1
 and names each damaged file with what disagreed. Exits 77 (ctest's SKIP_RETURN_CODE) when pvpython
-is not installed (`scripts/setup.sh --with-paraview` installs it); anything else missing is a failure.
+is not installed (`scripts/setup.sh` installs it); anything else missing is a failure.
 Uses /usr/bin/python3 with h5py (python3-h5py, in scripts/setup.sh) to delete a dataset.
 """
 import os
@@ -50,7 +50,7 @@ def main():
     src, bindir = Path(sys.argv[1]), Path(sys.argv[2])
     pvpython = shutil.which("pvpython")
     if not pvpython:
-        print("SKIP: pvpython not found (ParaView is not installed; scripts/setup.sh --with-paraview installs it)")
+        print("SKIP: pvpython not found (ParaView is not installed; scripts/setup.sh installs it)")
         return SKIP
     tmp = Path(tempfile.mkdtemp(prefix="mlcg_paraview_"))
     print(f"working in {tmp} (removed when the test passes)")
