@@ -199,10 +199,6 @@ inline KickArrays kick_arrays(Particles& p, const Vec3* x_ref) {
           p.inv_mass.data(), p.inv_inertia.data(), p.mass.data(), x_ref ? &x_ref[0].x : nullptr};
 }
 
-}  // namespace integrator_detail
-
-namespace integrator_detail {
-
 template <bool Owed>
 FirstHalf first_half_all(Particles& p, double dt, const Vec3& g, const Vec3* x_ref) {
   const size_t n = p.n_local();
