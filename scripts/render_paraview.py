@@ -4,11 +4,11 @@ their radius, coloured by speed |v|, cut open at y = 0 to show the inside.
     xvfb-run -a -s "-screen 0 1600x1600x24" pvbatch scripts/render_paraview.py RUN_DIR --time T --out PNG
 
 Debian's ParaView renders through X only, hence xvfb-run (scripts/setup.sh installs ParaView,
---with-paraview adds xvfb). RUN_DIR is a hierarchy's run folder (levels/<name>/particles.xmf) or a single level's. Files are
-read with ParaView's XDMF 3 reader (Xdmf3ReaderS), the snapshot nearest T taken on each level (they
-must agree within --tolerance). Inside a fine region both levels hold particles (the coarse level goes
-on there); the picture shows the finest level there and the coarser level only outside its regions,
-whose boxes are drawn as outlines.
+--with-paraview adds xvfb). RUN_DIR is a hierarchy's run folder (levels/<name>/particles.xmf) or a single
+level's. Files are read with ParaView's XDMF 3 reader (Xdmf3ReaderS), the snapshot nearest T taken on
+each level (they must agree within --tolerance). Inside a fine region both levels hold particles (the
+coarse level goes on there); the picture shows the finest level there and the coarser level only
+outside its regions, whose boxes are drawn as outlines.
 """
 import argparse
 import ctypes

@@ -284,21 +284,17 @@ bool Level::may_owe_kick() const {
          stepper_.global_particles > opt_.owed_kick_above * comm_.size();
 }
 
-void Level::pay_owed_kick() {
-  if (!kick_owed_) return;
+double Level::pay_owed_kick() {
+  if (!kick_owed_) return 0.0;
   kick_owed_ = false;
-  double sum;
-  {
-    PhaseTimer t(out_.times.integrate);
-    sum = integrate_second_half(state_.p, physics_.dt);
-  }
-  owed_kick_sum_ = sum;
+  PhaseTimer t(out_.times.integrate);
+  return integrate_second_half(state_.p, physics_.dt);
 }
 
 void Level::settle_kick() {
   if (!kick_owed_) return;
-  pay_owed_kick();
-  guard(std::isfinite(owed_kick_sum_) ? std::string() : non_finite("velocity", run_.step - 1), 2.0);
+  const double sum = pay_owed_kick();
+  guard(std::isfinite(sum) ? std::string() : non_finite("velocity", run_.step - 1), 2.0);
 }
 
 void Level::step_once() { step(false); }

@@ -195,11 +195,11 @@ class Level {
   // run()'s steps may leave their second half-kick owed to the next step's first half (one pass
   // over the arrays instead of two): while kick_owed_, v and omega are half a kick short. Whatever
   // reads them between steps calls settle_kick() first (collective: guards the velocities);
-  // pay_owed_kick() only applies it (on the way out of a failed run).
+  // pay_owed_kick() only applies it (on the way out of a failed run) and returns its checksum.
   void step(bool may_owe);
   bool may_owe_kick() const;
   void settle_kick();
-  void pay_owed_kick();
+  double pay_owed_kick();
   // Collective stop: throws GuardStop on every rank if any rank has a problem.
   void guard(const std::string& local_problem, double badness);
   void after_step();              // measurements and outputs at the new time
@@ -259,7 +259,6 @@ class Level {
   bool interrupted_ = false;
   int64_t steps_this_process_ = 0;
   bool kick_owed_ = false;          // see step()
-  double owed_kick_sum_ = 0.0;      // pay_owed_kick()'s checksum
 
   std::shared_ptr<spdlog::logger> log_;
   Reporting out_;
