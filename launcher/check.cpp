@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "config/regions.hpp"
 #include "from_case.hpp"
 #include "level/stability_preview.hpp"
 #include "process.hpp"
@@ -152,6 +153,24 @@ std::vector<RegionInfo> print_regions(const config::CaseSpec& cs, const config::
   return out;
 }
 
+// The scene's outlets (found once: scene/outlets.hpp) and the openings that are none, with the reason.
+void print_outlets(const config::OutletScan& scan) {
+  std::printf("outlets: %zu %s\n", scan.outlets.size(),
+              scan.given ? "given by [orifice] / [[orifices]]" : "found in the walls");
+  for (const auto& o : scan.outlets) std::printf("  %s\n", config::outlet_text(o).c_str());
+  for (const auto& n : scan.notes) std::printf("  not an outlet: %s\n", n.c_str());
+}
+
+// Which level each probe is read from: the finest level whose region holds it (config/regions.hpp).
+void print_probes(const config::CaseSpec& cs) {
+  if (!cs.coupling) return;
+  for (const auto& p : cs.probes) {
+    const auto& l = cs.levels[config::resolving_level(cs, p.point)];
+    std::printf("probe '%s' at [%g, %g, %g]: read from level '%s' (alpha %g)\n", p.name.c_str(), p.point.x, p.point.y,
+                p.point.z, l.name.c_str(), l.alpha);
+  }
+}
+
 // Particles of one level: what the case places and inserts on the level that fills the scene; on a fine
 // level the coupler feeds, an estimate: its regions' volume inside the walls x packing, at most the coarse
 // level's particles refined.
@@ -275,7 +294,9 @@ int check_case(const CheckOptions& o) {
                 cs.title.c_str(), cs.levels.size(), cs.coupling ? ", coupled" : ", no coupler needed");
     for (size_t i = 0; i < cs.bases.size(); ++i)  // base = ..., nearest first
       std::printf("  %s %s\n", i == 0 ? "a variant of" : "  itself a variant of", cs.bases[i].c_str());
+    print_outlets(p.outlets);
     const auto regions = print_regions(cs, p.regions);
+    print_probes(cs);
     double fill_alpha = 1.0;
     for (const auto& l : cs.levels) fill_alpha = std::max(fill_alpha, l.alpha);
     const EndTime end = end_time(cs, fill_alpha);

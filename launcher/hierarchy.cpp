@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -12,6 +13,7 @@
 #include "io/atomic_file.hpp"
 #include "bus/case_hash.hpp"
 #include "config/case_parser.hpp"
+#include "config/regions.hpp"
 #include "checkpoints.hpp"
 #include "process.hpp"
 #include "run_folder.hpp"
@@ -45,8 +47,29 @@ nlohmann::json read_json(const fs::path& p) {
   return j.is_object() ? j : nlohmann::json::object();
 }
 
-// One summary over the hierarchy: every level's entry, the finest level's
-// probes (data at the highest resolution available), overall status.
+// Each probe's entry from the finest level whose region holds it (config/regions.hpp): a fine level removes
+// its particles where they leave its region, so it cannot see a probe outside; `level` says which, and
+// `resolved` whether that is a finest level.
+nlohmann::json resolved_probes(const config::CaseSpec& cs, const fs::path& run_dir) {
+  double finest = cs.levels.front().alpha;
+  for (const auto& l : cs.levels) finest = std::min(finest, l.alpha);
+  std::map<size_t, nlohmann::json> summaries;
+  auto out = nlohmann::json::array();
+  for (const auto& p : cs.probes) {
+    const size_t l = config::resolving_level(cs, p.point);
+    if (!summaries.count(l)) summaries[l] = read_json(run_dir / "levels" / cs.levels[l].name / "summary.json");
+    nlohmann::json e = {{"name", p.name}};
+    for (const auto& q : summaries[l].value("probes", nlohmann::json::array()))
+      if (q.value("name", "") == p.name) e = q;
+    e["level"] = cs.levels[l].name;
+    e["resolved"] = cs.levels[l].alpha <= finest;
+    out.push_back(e);
+  }
+  return out;
+}
+
+// One summary over the hierarchy: every level's entry, each probe from the level that resolves it
+// (data at the highest resolution available), overall status.
 void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Outcome& r, int attempts) {
   nlohmann::json s;
   s["case"] = cs.path;
@@ -78,9 +101,8 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Ou
     s["simulated_time"] = j.value("simulated_time", 0.0);
     s["levels"].push_back(e);
   }
-  const auto fine = read_json(run_dir / "levels" / cs.levels[finest].name / "summary.json");
-  s["probes"] = fine.value("probes", nlohmann::json::array());
-  s["probes_from_level"] = cs.levels[finest].name;
+  s["probes"] = resolved_probes(cs, run_dir);
+  s["probes_from_level"] = s["probes"].empty() ? cs.levels[finest].name : s["probes"][0].value("level", "");
   s["wall_seconds"] = wall;
   // Coupling overhead: the largest level share of coupling work plus the coupler's busy time,
   // over the run's wall time; waiting on the coupler (the levels' different pace) reported apart.
@@ -211,8 +233,8 @@ void print_end(const fs::path& run_dir, const Outcome& r) {
                   g.value("inserted_particles", 0ULL), g.value("inserted_kg", 0.0), g.value("crossed_kg", 0.0),
                   g.value("remainder_kg", 0.0), 100.0 * s["coupling"].value("overhead_share", 0.0));
   for (const auto& p : s["probes"])
-    std::printf("probe %s (level %s): %s\n", p.value("name", "?").c_str(), s.value("probes_from_level", "?").c_str(),
-                probe_flow_text(p).c_str());
+    std::printf("probe %s (level %s%s): %s\n", p.value("name", "?").c_str(), p.value("level", "?").c_str(),
+                p.value("resolved", true) ? "" : ", coarse: no fine region holds it", probe_flow_text(p).c_str());
   if (r.exit_code == 0) return;
   if (!r.failed.empty()) std::fprintf(stderr, "mlcg: %s; every other process was stopped\n", r.failed.c_str());
   if (s.contains("checkpoint") && s["checkpoint"].contains("damaged"))

@@ -22,6 +22,7 @@
 #include "level/stability_preview.hpp"
 #include "process.hpp"
 #include "run_folder.hpp"
+#include "scene/outlets.hpp"
 
 namespace fs = std::filesystem;
 
@@ -93,8 +94,10 @@ int run_launched(const config::CaseSpec& cs, const std::string& case_file, const
 
 }  // namespace
 
-config::RegionRuleReport check_regions(const config::CaseSpec& cs) {
-  auto report = config::check_region_rules(cs);
+config::RegionRuleReport check_regions(const config::CaseSpec& cs, const config::OutletScan& outlets) {
+  auto report = config::check_region_rules(cs, outlets);
+  if (cs.coupling)
+    for (const auto& o : outlets.outlets) std::printf("mlcg: %s\n", config::outlet_text(o).c_str());
   for (const auto& n : report.notes) std::printf("mlcg: %s\n", n.c_str());
   std::fflush(stdout);
   for (const auto& w : report.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
@@ -104,10 +107,13 @@ config::RegionRuleReport check_regions(const config::CaseSpec& cs) {
   throw std::runtime_error(all);
 }
 
+config::RegionRuleReport check_regions(const config::CaseSpec& cs) { return check_regions(cs, find_outlets(cs)); }
+
 PreparedCase prepare_case(const std::string& case_file, const std::string& hosts, bool curve) {
   PreparedCase p;
   p.cs = config::load_case(case_file);
-  p.regions = check_regions(p.cs);
+  p.outlets = find_outlets(p.cs);
+  p.regions = check_regions(p.cs, p.outlets);
   if (!hosts.empty() && p.cs.levels.size() < 2)
     throw std::runtime_error("--hosts places the coupler and the levels of a multi-level case; " + case_file +
                              " has one level (start it with mpirun --hostfile)");

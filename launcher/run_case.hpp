@@ -9,10 +9,11 @@
 
 namespace mlcg::launcher {
 
-// The coupling-region rules of a hierarchy (config/region_rules.hpp), before anything starts:
-// prints the notes (stdout) and warnings (stderr); throws std::runtime_error with every refusal.
-// Returns the report (for `mlcg check`'s verdict).
-config::RegionRuleReport check_regions(const config::CaseSpec& cs);
+// The coupling-region rules of a hierarchy (config/region_rules.hpp) against the scene's outlets
+// (scene/outlets.hpp), before anything starts: prints the outlets and notes (stdout) and warnings
+// (stderr); throws std::runtime_error with every refusal. Returns the report (for `mlcg check`'s verdict).
+config::RegionRuleReport check_regions(const config::CaseSpec& cs, const config::OutletScan& outlets);
+config::RegionRuleReport check_regions(const config::CaseSpec& cs);  // finds the outlets itself
 
 // Everything `mlcg run` checks before it starts anything, in one place for `mlcg run` and `mlcg check`:
 // the case (parser), the region rules, the hostfile and the bus security. Throws with the message
@@ -20,6 +21,7 @@ config::RegionRuleReport check_regions(const config::CaseSpec& cs);
 struct PreparedCase {
   config::CaseSpec cs;
   Placement placement;
+  config::OutletScan outlets;  // the scene's outlets, found once (scene/outlets.hpp)
   config::RegionRuleReport regions;
 };
 PreparedCase prepare_case(const std::string& case_file, const std::string& hosts, bool curve);

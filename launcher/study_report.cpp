@@ -42,7 +42,6 @@ StudyRow measure_run(const Variant& v, const std::string& probe) {
   r.cpu_measured = s.contains("cpu_seconds");
   if (r.cpu_measured) r.cpu = s["cpu_seconds"].get<double>();
   r.wall = s.value("wall_seconds", 0.0);
-  r.data_dir = r.hierarchy ? v.run / "levels" / s.value("probes_from_level", "") : v.run;
   const auto& probes = s.value("probes", nlohmann::json::array());
   auto p = std::find_if(probes.begin(), probes.end(),
                         [&](const nlohmann::json& q) { return probe.empty() || q.value("name", "") == probe; });
@@ -50,6 +49,12 @@ StudyRow measure_run(const Variant& v, const std::string& probe) {
     throw StudyError(fmt::format("{}: variant '{}': its run {} has no probe{}; the study compares a [[probes]] "
                                  "entry's discharge (study key `probe`)",
                                  v.where, v.name, v.run.string(), probe.empty() ? "" : " named '" + probe + "'"));
+  // The level that resolves the probe (runs before per-probe levels: the finest level's).
+  if (r.hierarchy) {
+    r.probe_level = p->value("level", s.value("probes_from_level", ""));
+    r.probe_resolved = p->value("resolved", true);
+  }
+  r.data_dir = r.hierarchy ? v.run / "levels" / r.probe_level : v.run;
   r.probe = p->value("name", "");
   r.mdot = p->value("mean_kg_per_s", 0.0);
   r.sigma = p->value("std_kg_per_s", 0.0);
@@ -225,11 +230,17 @@ std::string md_row(const StudyRow& r, bool swept) {
                      r.speedup_wall, r.speedup_cpu, r.step_ratio);
 }
 
+std::string probe_from(const StudyRow& r) {
+  if (r.probe_level.empty()) return "";
+  return fmt::format(" (probe from level '{}'{})", r.probe_level,
+                     r.probe_resolved ? "" : ", a coarse level: no fine region holds the probe");
+}
+
 void write_md(const StudySpec& s, const std::vector<StudyRow>& rows) {
   const bool swept = std::any_of(rows.begin(), rows.end(), [](const StudyRow& r) { return !r.v->sweep.empty(); });
   std::string out = fmt::format("# {}\n\n", s.title.empty() ? "Error against run time" : s.title);
   out += fmt::format("Study file: `{}`. Reference: `{}`. Discharge: probe `{}` (⟨ṁ⟩ and σ(ṁ) over its window; a "
-                     "hierarchy's from its finest level).\n\n",
+                     "hierarchy's from the finest level whose region holds the probe, named below).\n\n",
                      s.file.empty() ? "(default variants)" : s.file, s.reference, rows.front().probe);
   out += fmt::format("| variant |{} particles (largest per level) | ⟨ṁ⟩ ± 95 % CI [kg/s] | σ(ṁ) [kg/s] | replicas | "
                      "error ± 95 % CI | wall [s] | CPU [s] | particle-steps | particle-steps/s | speedup wall / CPU | "
@@ -248,8 +259,8 @@ void write_md(const StudySpec& s, const std::vector<StudyRow>& rows) {
          "(wall and CPU seconds); particle-step ratio = reference's particle-steps / the variant's.\n\n";
   for (const auto& r : rows)
     for (const auto& q : r.runs)
-      out += fmt::format("- `{}`{}: `{}`\n", r.v->name, r.replicas > 1 ? fmt::format(" (seed {})", q.seed) : "",
-                         q.run.string());
+      out += fmt::format("- `{}`{}: `{}`{}\n", r.v->name, r.replicas > 1 ? fmt::format(" (seed {})", q.seed) : "",
+                         q.run.string(), probe_from(r));
   io::write_file_atomic(s.folder / "study.md", out);
 }
 

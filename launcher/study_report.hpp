@@ -35,6 +35,8 @@ struct StudyRow {
   };
   std::vector<Run> runs;        // the row's runs: one, or one per replica
   std::string probe;            // the probe's name
+  std::string probe_level;      // a hierarchy's level the probe is read from ("" for one level)
+  bool probe_resolved = true;   // that level is a finest one (false: no fine region holds the probe)
   double error_pct = 0.0;       // 100 (⟨ṁ⟩ - ⟨ṁ⟩_ref) / ⟨ṁ⟩_ref
   double error_ci_pct = std::numeric_limits<double>::quiet_NaN();  // its 95 % half-width, from both ci95
   double wall = 0.0;            // run's wall seconds
@@ -42,7 +44,7 @@ struct StudyRow {
   bool cpu_measured = false;
   double particle_steps = 0.0;  // Σ levels
   double speedup_wall = 0.0, speedup_cpu = 0.0, step_ratio = 0.0;  // reference / this
-  std::filesystem::path data_dir;  // the finest level's run folder (probes/, grids/)
+  std::filesystem::path data_dir;  // the run folder of the level the probe is read from (probes/, grids/)
 };
 
 // Reads a completed run's summary.json; `probe` "" = the first probe. Throws StudyError.

@@ -11,6 +11,8 @@
 #include "config/region_rules.hpp"
 #include "core/material.hpp"
 #include "files.hpp"
+#include "messages.hpp"
+#include "scene/outlets.hpp"
 #include "scene/walls_from_case.hpp"
 
 namespace {
@@ -43,60 +45,71 @@ std::string quickstart(const std::string& from = "", const std::string& to = "")
   return from.empty() ? text : edited(text, from, to);
 }
 
-RegionRuleReport rules_of(const std::string& text) { return check_region_rules(parse_case(text, kQuickstart)); }
+RegionRuleReport rules(const CaseSpec& cs) { return check_region_rules(cs, mlcg::find_outlets(cs)); }
+RegionRuleReport rules_of(const std::string& text) { return rules(parse_case(text, kQuickstart)); }
+std::vector<Outlet> outlets_of(const CaseSpec& cs) { return mlcg::find_outlets(cs).outlets; }
 
-bool has(const std::vector<std::string>& v, const std::string& phrase) {
-  return std::any_of(v.begin(), v.end(), [&](const std::string& s) { return s.find(phrase) != std::string::npos; });
-}
-
-std::string all(const std::vector<std::string>& v) {
-  std::string s;
-  for (const auto& m : v) s += m + "\n";
-  return s;
-}
+using mlcg::test::all;
+using mlcg::test::has;
 
 // ---- the orifice --------------------------------------------------------------------
 
 TEST(RegionRules, OrificeIsTheConeUnderTheLid) {  // silo_small: a 6 cm lid over the cone's 4 cm opening
-  const auto o = find_orifice(load_case(kSrc + "/cases/silo_small/mlcg.toml"));
-  ASSERT_TRUE(o);
-  EXPECT_DOUBLE_EQ(o->size, 0.04);
-  EXPECT_DOUBLE_EQ(o->center.z, 0.0);
-  EXPECT_EQ(o->from, "lid 'lid' over cone 'cone'");
+  const auto all = outlets_of(load_case(kSrc + "/cases/silo_small/mlcg.toml"));
+  ASSERT_EQ(all.size(), 1u);  // the cylinder's bottom on the cone's top is a junction, their tops open upward
+  const Outlet& o = all[0];
+  EXPECT_DOUBLE_EQ(o.size(), 0.04);
+  EXPECT_DOUBLE_EQ(o.center.z, 0.0);
+  EXPECT_DOUBLE_EQ(o.normal.z, -1.0);
+  EXPECT_EQ(o.from, "lid 'lid' over the bottom of cone 'cone'");
+  EXPECT_EQ(o.opened_by, "event 'open' (removes wall 'lid')");
 }
 
 TEST(RegionRules, OrificeIsTheHoleOfAFlatFloor) {  // an annulus with an off-centre hole, the lid 1 mm below
-  const auto o = find_orifice(load_case(kSrc + "/cases/hoppers/offcentre_bin/mlcg.toml"));
-  ASSERT_TRUE(o);
-  EXPECT_DOUBLE_EQ(o->size, 0.03);
-  EXPECT_DOUBLE_EQ(o->center.x, 0.02);
-  EXPECT_EQ(o->from, "lid 'lid' over the hole of disk 'floor'");
+  const auto all = outlets_of(load_case(kSrc + "/cases/hoppers/offcentre_bin/mlcg.toml"));
+  ASSERT_EQ(all.size(), 1u);  // the barrel's bottom is narrowed to the floor's hole
+  EXPECT_DOUBLE_EQ(all[0].size(), 0.03);
+  EXPECT_DOUBLE_EQ(all[0].center.x, 0.02);
+  EXPECT_DOUBLE_EQ(all[0].normal.z, -1.0);  // a hole in a flat floor: away from the fill above it
+  EXPECT_EQ(all[0].from, "lid 'lid' over the hole of disk 'floor'");
 }
 
 TEST(RegionRules, OrificeKeyWinsOverTheLid) {  // the slot under a round lid
-  const auto o = find_orifice(load_case(kSrc + "/cases/hoppers/wedge_slot/mlcg.toml"));
-  ASSERT_TRUE(o);
-  EXPECT_DOUBLE_EQ(o->size, 0.03);  // the slot's width, not the lid's 6 cm
-  EXPECT_NE(o->from.find("[orifice]"), std::string::npos) << o->from;
+  const auto scan = mlcg::find_outlets(load_case(kSrc + "/cases/hoppers/wedge_slot/mlcg.toml"));
+  ASSERT_EQ(scan.outlets.size(), 1u);
+  EXPECT_TRUE(scan.given);
+  EXPECT_DOUBLE_EQ(scan.outlets[0].size(), 0.03);  // the slot's width, not the lid's 6 cm
+  EXPECT_NE(scan.outlets[0].from.find("[orifice]"), std::string::npos) << scan.outlets[0].from;
+  // the walls say the same: the mesh's slot under the lid
+  EXPECT_TRUE(has(scan.notes, "found in the walls, replaced by the case's [orifice] / [[orifices]]: outlet0: rectangle "
+                              "0.03 x 0.045 m (D0 = its width) at [0, 0, 0], flow leaves along [0, 0, -1], from lid "
+                              "'lid' over a rectangle hole (4 edges) in mesh 'hopper'"))
+      << all(scan.notes);
 }
 
-TEST(RegionRules, OrificeFromTheLowestConeWithoutALid) {
+TEST(RegionRules, AnOpeningALidNeverLeavesIsClosedAndAnOpenOneIsAnOutlet) {
   CaseSpec cs = parse_case(quickstart(), kQuickstart);
-  cs.events.clear();  // the lid stays: no removed wall, so the funnel's bottom is the orifice
-  const auto o = find_orifice(cs);
-  ASSERT_TRUE(o);
-  EXPECT_DOUBLE_EQ(o->size, 0.024);
-  EXPECT_EQ(o->from, "the bottom of cone 'funnel'");
+  cs.events.clear();  // the lid stays: the funnel's bottom is closed
+  const auto closed = mlcg::find_outlets(cs);
+  EXPECT_TRUE(closed.outlets.empty());
+  EXPECT_TRUE(has(closed.notes, "the bottom of cone 'funnel' is closed by wall 'lid', which no event removes"))
+      << all(closed.notes);
+  cs.walls.erase(std::find_if(cs.walls.begin(), cs.walls.end(), [](const WallSpec& w) { return w.name == "lid"; }));
+  const auto open = outlets_of(cs);  // no lid at all: open from the start
+  ASSERT_EQ(open.size(), 1u);
+  EXPECT_DOUBLE_EQ(open[0].size(), 0.024);
+  EXPECT_EQ(open[0].from, "the bottom of cone 'funnel'");
+  EXPECT_EQ(open[0].opened_by, "");
 }
 
 TEST(RegionRules, NoOrificeSkipsTheOrificeRulesWithANote) {
   CaseSpec cs = parse_case(quickstart("max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.0]"), kQuickstart);
   cs.events.clear();
-  cs.walls.erase(cs.walls.begin() + 1);  // no funnel: nothing says where the orifice is
-  EXPECT_FALSE(find_orifice(cs));
-  const auto r = check_region_rules(cs);
+  cs.walls.erase(cs.walls.begin(), cs.walls.begin() + 2);  // no barrel, no funnel: no opening (the lid stays)
+  EXPECT_TRUE(outlets_of(cs).empty());
+  const auto r = rules(cs);
   EXPECT_TRUE(r.errors.empty()) << all(r.errors);  // a top at the orifice's height is not refused without one
-  EXPECT_TRUE(has(r.notes, "no orifice found")) << all(r.notes);
+  EXPECT_TRUE(has(r.notes, "no outlet found")) << all(r.notes);
   EXPECT_TRUE(has(r.notes, "give [orifice]"));
 }
 
@@ -110,8 +123,8 @@ TEST(RegionRules, RefusesATopTooCloseAboveTheOrifice) {
   const std::string where = kQuickstart + ":" + std::to_string(line_of(text, "max = [0.04, 0.04, 0.02]")) +
                             ": coupling.regions[0].max: ";
   EXPECT_EQ(e.substr(0, where.size()), where) << e;
-  EXPECT_NE(e.find("z = 0.02 m, 0.83 orifice diameters above the orifice (z = 0 m, D0 = 0.024 m, from lid 'lid' "
-                   "over cone 'funnel')"),
+  EXPECT_NE(e.find("z = 0.02 m, 0.83 orifice diameters above the orifice ('outlet0', D0 = 0.024 m, from lid 'lid' "
+                   "over the bottom of cone 'funnel')"),
             std::string::npos)
       << e;
   EXPECT_NE(e.find("at least 1 D0"), std::string::npos) << e;
@@ -145,9 +158,12 @@ TEST(RegionRules, RefusesACoarseLevelThatCannotPassAnOrificeOutsideTheRegion) {
   const std::string where = kQuickstart + ":" + std::to_string(line_of(text, "coarse = \"coarse\"")) +
                             ": coupling.regions[0].coarse: ";
   EXPECT_EQ(r.errors[0].substr(0, where.size()), where) << r.errors[0];
-  EXPECT_NE(r.errors[0].find("the orifice (D0 = 0.024 m, from lid 'lid' over cone 'funnel') is only 3.00 coarse diameters wide"), std::string::npos) << r.errors[0];
+  EXPECT_NE(r.errors[0].find("the orifice ('outlet0', D0 = 0.024 m, from lid 'lid' over the bottom of cone 'funnel') is "
+                             "only 3.00 coarse diameters wide"),
+            std::string::npos)
+      << r.errors[0];
   EXPECT_NE(r.errors[0].find("jamming ratio D0 / d = 5"), std::string::npos);
-  EXPECT_NE(r.errors[0].find("does not contain it"), std::string::npos);
+  EXPECT_NE(r.errors[0].find("no fine region over level 'coarse' contains it"), std::string::npos);
   EXPECT_NE(r.errors[0].find("extend the region over the orifice at [0, 0, 0]"), std::string::npos);
 }
 
@@ -162,14 +178,14 @@ TEST(RegionRules, EveryRefusalIsReported) {
 TEST(RegionRules, WarnsWhenTheCoarseLevelReliesOnTheCorrectionCells) {
   const auto r = rules_of(quickstart());  // the shipped quickstart: 2.5 coarse diameters per cell, D0 / d = 3
   EXPECT_TRUE(r.errors.empty()) << all(r.errors);
-  EXPECT_TRUE(has(r.warnings, "coupling.regions[0].coarse: the orifice (D0 = 0.024 m")) << all(r.warnings);
+  EXPECT_TRUE(has(r.warnings, "coupling.regions[0].coarse: the orifice ('outlet0', D0 = 0.024 m")) << all(r.warnings);
   EXPECT_TRUE(has(r.warnings, "relies on the correction cells")) << all(r.warnings);
   EXPECT_TRUE(has(r.warnings, "coupling.regions[0].cell_size: cell_size = 0.02 m is 2.50 coarse diameters"))
       << all(r.warnings);
-  EXPECT_TRUE(has(r.notes, "D0 = 0.024 m, from lid 'lid' over cone 'funnel'")) << all(r.notes);
+  EXPECT_TRUE(has(r.notes, "D0 = 0.024 m, from lid 'lid' over the bottom of cone 'funnel'")) << all(r.notes);
   // its top, 1.67 D0 above the orifice: above the advised 1.1 D0, below the 2 D0 noted for about 1 %
   EXPECT_FALSE(has(r.warnings, "orifice diameters above the orifice")) << all(r.warnings);
-  EXPECT_TRUE(has(r.notes, "1.67 orifice diameters above the orifice (D0 = 0.024 m")) << all(r.notes);
+  EXPECT_TRUE(has(r.notes, "1.67 orifice diameters above the orifice ('outlet0', D0 = 0.024 m")) << all(r.notes);
   EXPECT_TRUE(has(r.notes, "for about 1 % raise max z to 0.048 m")) << all(r.notes);
   // two diameters up: no note about the height
   const auto tall = rules_of(edited(quickstart(), "max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.06]"));
@@ -178,12 +194,12 @@ TEST(RegionRules, WarnsWhenTheCoarseLevelReliesOnTheCorrectionCells) {
   const auto low = rules_of(
       edited(quickstart(), "[coupling]", "[orifice]\ncenter = [0.0, 0.0, 0.0]\ndiameter = 0.038\n\n[coupling]"));
   EXPECT_TRUE(low.errors.empty()) << all(low.errors);
-  EXPECT_TRUE(has(low.warnings, "1.05 orifice diameters above the orifice (D0 = 0.038 m")) << all(low.warnings);
+  EXPECT_TRUE(has(low.warnings, "1.05 orifice diameters above the orifice ('orifice', D0 = 0.038 m")) << all(low.warnings);
   EXPECT_TRUE(has(low.warnings, "below the advised 1.1")) << all(low.warnings);
 }
 
 TEST(RegionRules, SingleLevelCaseHasNoReport) {
-  const auto r = check_region_rules(load_case(kSrc + "/cases/silo_small/reference.toml"));
+  const auto r = rules(load_case(kSrc + "/cases/silo_small/reference.toml"));
   EXPECT_TRUE(r.errors.empty() && r.warnings.empty() && r.notes.empty());
 }
 
@@ -193,15 +209,15 @@ TEST(RegionRules, ShippedHierarchiesPass) {
   for (const char* c : {"silo_small/mlcg.toml", "silo_small/mlcg_no_pi.toml", "silo_small/mlcg_tall.toml",
                         "quickstart/mlcg.toml", "quickstart/mlcg3.toml", "silo_paper/mlcg.toml",
                         "silo_paper/mlcg_small.toml", "silo_paper/mlcg3.toml"}) {
-    const auto r = check_region_rules(load_case(kSrc + "/cases/" + c));
+    const auto r = rules(load_case(kSrc + "/cases/" + c));
     EXPECT_TRUE(r.errors.empty()) << c << ":\n" << all(r.errors);
   }
-  const auto silo = check_region_rules(load_case(kSrc + "/cases/silo_small/mlcg.toml"));
+  const auto silo = rules(load_case(kSrc + "/cases/silo_small/mlcg.toml"));
   // 3.6 coarse diameters per cell, D0/d 7.1, its top 1.5 D0 above the orifice: nothing to warn about
   EXPECT_TRUE(silo.warnings.empty()) << all(silo.warnings);
   EXPECT_TRUE(has(silo.notes, "1.50 orifice diameters above the orifice")) << all(silo.notes);
   // the same region up to 2 D0: no note about its height
-  const auto tall = check_region_rules(load_case(kSrc + "/cases/silo_small/mlcg_tall.toml"));
+  const auto tall = rules(load_case(kSrc + "/cases/silo_small/mlcg_tall.toml"));
   EXPECT_TRUE(tall.warnings.empty()) << all(tall.warnings);
   EXPECT_FALSE(has(tall.notes, "orifice diameters above the orifice")) << all(tall.notes);
 }
@@ -213,13 +229,13 @@ TEST(RegionRules, EveryHopperSceneHasItsVariantsAndPasses) {
     for (const char* f : {"reference.toml", "cg2.toml", "mlcg.toml", "study.toml"})
       EXPECT_TRUE(fs::is_regular_file(e.path() / f)) << e.path() / f;
     for (const char* f : {"reference.toml", "cg2.toml"})  // single levels: nothing to check, nothing refused
-      EXPECT_TRUE(check_region_rules(load_case((e.path() / f).string())).errors.empty()) << e.path() / f;
+      EXPECT_TRUE(rules(load_case((e.path() / f).string())).errors.empty()) << e.path() / f;
     const CaseSpec cs = load_case((e.path() / "mlcg.toml").string());
-    const auto r = check_region_rules(cs);
+    const auto r = rules(cs);
     EXPECT_TRUE(r.errors.empty()) << e.path() << ":\n" << all(r.errors);
     // sized to pass clean: 3.3-3.6 coarse diameters per cell, tops 1.13-1.33 D0 above the orifice
     EXPECT_TRUE(r.warnings.empty()) << e.path() << ":\n" << all(r.warnings);
-    EXPECT_TRUE(find_orifice(cs)) << e.path();
+    EXPECT_EQ(outlets_of(cs).size(), 1u) << e.path();
     ++scenes;
   }
   EXPECT_GE(scenes, 6);
@@ -230,9 +246,10 @@ TEST(RegionRules, EveryHopperSceneHasItsVariantsAndPasses) {
 TEST(RegionRules, OrificeKeyReadAndChecked) {
   const std::string base = quickstart("[coupling]", "[orifice]\ncenter = [0.0, 0.0, 0.0]\nwidth = 0.03\nlength = 0.05\n\n[coupling]");
   const CaseSpec cs = parse_case(base, kQuickstart);
-  ASSERT_TRUE(cs.orifice);
-  EXPECT_DOUBLE_EQ(cs.orifice->size(), 0.03);
-  EXPECT_DOUBLE_EQ(cs.orifice->length, 0.05);
+  ASSERT_EQ(cs.orifices.size(), 1u);
+  EXPECT_DOUBLE_EQ(cs.orifices[0].size(), 0.03);
+  EXPECT_DOUBLE_EQ(cs.orifices[0].length, 0.05);
+  EXPECT_EQ(cs.orifices[0].name, "orifice");
   const auto refused = [&](const std::string& from, const std::string& to, const std::string& phrase) {
     try {
       parse_case(edited(base, from, to), kQuickstart);

@@ -426,7 +426,7 @@ TEST_F(Study, RefusesBadStudyFilesNamingFileLineAndKey) {
        "bad.toml:4: variants[0].replicas: 2.5 is not a whole number; allowed 1..20"},
       // the region rules, before anything runs: a region top 0.83 orifice diameters above the orifice
       {sweep + "key = \"coupling.regions[0].max\"\nvalues = [[0.04, 0.04, 0.02]]\n",
-       "coupling.regions[0].max: the region's top (its boundary surface"},
+       "coupling.regions[0].max: the region's top is z = 0.02 m, 0.83 orifice diameters above the orifice"},
       {"[[variants]]\nname = \"r\"\ncase = \"cg2.toml\"\n[" + deep + "]\n",
        "bad.toml:4: a dotted key or table header of more than 64 parts"},
   };

@@ -44,7 +44,7 @@ CaseSpec scene_of(CaseSpec c, bool files_relative = true) {
   clear(c.materials), clear(c.interactions), clear(c.levels), clear(c.walls), clear(c.insertions);
   clear(c.particles), clear(c.events), clear(c.probes), clear(c.grids), clear(c.swaps);
   if (c.initial) c.initial->loc = {};
-  if (c.orifice) c.orifice->loc = {};
+  for (auto& o : c.orifices) o.loc = {};
   if (c.coupling) {
     c.coupling->loc = {};
     for (auto& r : c.coupling->regions) r.loc = {}, r.key_locs.clear();
@@ -67,7 +67,7 @@ std::string differences(const CaseSpec& a, const CaseSpec& b) {
   note("particles", a.particles == b.particles), note("initial", a.initial == b.initial);
   note("events", a.events == b.events), note("probes", a.probes == b.probes), note("grids", a.grids == b.grids);
   note("output", a.output == b.output), note("stability", a.stability == b.stability), note("time", a.time == b.time);
-  note("orifice", a.orifice == b.orifice), note("coupling", a.coupling == b.coupling);
+  note("orifices", a.orifices == b.orifices), note("coupling", a.coupling == b.coupling);
   note("launcher", a.launcher == b.launcher), note("swap", a.swaps == b.swaps), note("limits", a.limits == b.limits);
   return d;
 }

@@ -419,15 +419,20 @@ void read_initial(const Table& root, CaseSpec& spec, Names& names) {
   spec.initial = in;
 }
 
-// ---- [orifice] -----------------------------------------------------------------
-// The scene's outlet, where the walls cannot say it (a slot under a lid, an STL floor):
-// a circle (`diameter`) or a slot (`width` x `length`). Checks and scripts read it.
-void read_orifice(const Table& root, CaseSpec& spec) {
-  if (!root.has("orifice")) return;
-  const Table t = root.table("orifice")->declared({schema::kOrifice}, "[orifice]");
+// ---- [orifice] / [[orifices]] ----------------------------------------------------
+// Outlets the walls cannot say (a slot under a round lid): a circle (`diameter`) or a slot
+// (`width` x `length`), each with the direction the flow leaves through it. Given, they replace
+// the outlets found in the geometry (scene/outlets.hpp). Checks and scripts read them.
+namespace {
+
+OrificeSpec read_one_orifice(const Table& t, const std::string& default_name, UniqueNames& names,
+                              const DomainSpec& domain) {
   OrificeSpec o;
+  o.name = t.has("name") ? t.required<std::string>("name") : default_name;
+  names.add(t, o.name);
   o.center = t.required<Vec3>("center");
-  check_inside_domain(t, "center", "center", o.center, o.center, spec.domain);
+  check_inside_domain(t, "center", "center", o.center, o.center, domain);
+  o.normal = direction(t, "normal");
   const bool circle = t.has("diameter"), slot = t.has("width") || t.has("length");
   if (circle == slot)
     t.fail_table(circle ? "give either diameter (a circular orifice) or width and length (a slot), not both"
@@ -441,7 +446,24 @@ void read_orifice(const Table& root, CaseSpec& spec) {
              num(o.length) + " is shorter than width = " + num(o.width) + "; width is the slot's narrow side");
   }
   o.loc = t.loc();
-  spec.orifice = o;
+  return o;
+}
+
+}  // namespace
+
+void read_orifice(const Table& root, CaseSpec& spec) {
+  UniqueNames names{"orifices"};
+  const auto list = array_of_tables(root, "orifices");
+  if (root.has("orifice") && !list.empty())
+    list.front().fail_table("give one [orifice] table or [[orifices]] entries, not both");
+  if (root.has("orifice"))
+    spec.orifices.push_back(
+        read_one_orifice(root.table("orifice")->declared({schema::kOrifice}, "[orifice]"), "orifice", names,
+                          spec.domain));
+  for (size_t i = 0; i < list.size(); ++i)
+    spec.orifices.push_back(
+        read_one_orifice(list[i].declared({schema::kOrifice}), "orifice" + std::to_string(i), names,
+                                               spec.domain));
 }
 
 }  // namespace mlcg::config::detail

@@ -118,7 +118,9 @@ inline constexpr KeySpec kInitial[] = {
 };
 
 inline constexpr KeySpec kOrifice[] = {
+    {"name", "string", "`\"orifice\"` (`\"orifice<i>\"` for entry i)", "unique", "the outlet's name in messages"},
     {"center", "vector", "*required*", "inside the domain", "the centre of the orifice [m], e.g. center = [0, 0, 0]"},
+    {"normal", "vector", "`[0, 0, -1]`", "non-zero", "the direction the flow leaves through it"},
     {"diameter", "number", "—", "> 0", "a circular orifice's diameter in m (> 0)", kPositive, "m"},
     {"width", "number", "—", "> 0", "the slot's width in m (its narrow side)", kPositive, "m"},
     {"length", "number", "—", "≥ `width`", "the slot's length in m"},

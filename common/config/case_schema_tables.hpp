@@ -28,6 +28,7 @@ inline constexpr KeySpec kTop[] = {
     {"stability", "table", "", "", "the guards of the time step"},
     {"time", "table", "*required*", "", "when the run ends"},
     {"orifice", "table", "", "", "the scene's outlet"},
+    {"orifices", "array of tables", "", "", "one [[orifices]] entry per outlet"},
     {"coupling", "table", "", "", "the coupling of a multi-level case"},
     {"launcher", "table", "", "", "how mlcg run supervises a multi-level run"},
     {"swap", "array of tables", "", "", "one [[swap]] entry per binary swap"},

@@ -259,9 +259,13 @@ struct CouplingSpec {              // [coupling]
   bool operator==(const CouplingSpec&) const = default;
 };
 
-struct OrificeSpec {               // [orifice]: the scene's outlet, for the coupling-region rules and
-                                   //   scripts (the solver does not use it)
+struct OrificeSpec {               // [orifice] or one [[orifices]] entry: an outlet the walls cannot say
+                                   //   (a slot under a round lid), for the region rules, `mlcg check` and
+                                   //   `mlcg plan`; the solver does not use it. Given, they replace the
+                                   //   outlets found in the geometry (scene/outlets.hpp).
+  std::string name;                // name: unique; default "orifice" ([orifice]) or "orifice<i>" ([[orifices]])
   Vec3 center;                     // center [m]
+  Vec3 normal{0, 0, -1};           // normal: the direction the flow leaves through it (normalised)
   double diameter = 0.0;           // diameter > 0: a circular orifice; or
   double width = 0.0;              // width, length > 0: a slot (the rules use its width)
   double length = 0.0;
@@ -315,7 +319,7 @@ struct CaseSpec {
   OutputSpec output;
   StabilitySpec stability;
   TimeSpec time;
-  std::optional<OrificeSpec> orifice;    // [orifice]
+  std::vector<OrificeSpec> orifices;     // [orifice] (one entry) or [[orifices]]
   std::optional<CouplingSpec> coupling;  // [coupling]: only in multi-level cases
   LauncherSpec launcher;                 // [launcher]: only in multi-level cases
   std::vector<SwapSpec> swaps;           // [[swap]]: only in multi-level cases

@@ -4,55 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <set>
+#include <numbers>
+
+#include "config/regions.hpp"
 
 namespace mlcg::config {
 namespace {
-
-// A circular opening the walls leave: a cone's or cylinder's bottom circle, a disk's hole.
-struct Opening {
-  Vec3 center;
-  double radius = 0.0;
-  std::string what;  // "cone 'cone'"
-};
-
-std::set<std::string> removed_walls(const CaseSpec& cs) {
-  std::set<std::string> out;
-  for (const EventSpec& e : cs.events) out.insert(e.remove_walls.begin(), e.remove_walls.end());
-  return out;
-}
-
-Vec3 unit(const Vec3& a) { return a / norm(a); }
-
-std::vector<Opening> openings(const CaseSpec& cs, const std::set<std::string>& removed) {
-  std::vector<Opening> out;
-  for (const WallSpec& w : cs.walls) {
-    if (removed.count(w.name)) continue;
-    const Vec3 bottom = w.center + w.bottom * unit(w.axis);
-    if (w.type == WallType::Cone && w.radius_bottom > 0.0)
-      out.push_back({bottom, w.radius_bottom, "cone '" + w.name + "'"});
-    else if (w.type == WallType::Cylinder)
-      out.push_back({bottom, w.radius, "cylinder '" + w.name + "'"});
-    else if (w.type == WallType::Disk && w.inner_radius > 0.0)
-      out.push_back({w.center, w.inner_radius, "the hole of disk '" + w.name + "'"});
-  }
-  return out;
-}
-
-// The narrowest opening a removed disk (a lid) covers, or the lid itself.
-std::optional<Orifice> orifice_under_lid(const CaseSpec& cs, const std::set<std::string>& removed) {
-  const auto holes = openings(cs, removed);
-  for (const WallSpec& lid : cs.walls) {
-    if (lid.type != WallType::Disk || !removed.count(lid.name)) continue;
-    const Opening* best = nullptr;
-    for (const Opening& o : holes)
-      if (norm(o.center - lid.center) <= lid.radius && o.radius <= lid.radius && (!best || o.radius < best->radius))
-        best = &o;
-    if (best) return Orifice{best->center, 2.0 * best->radius, "lid '" + lid.name + "' over " + best->what};
-    return Orifice{lid.center, 2.0 * lid.radius, "lid '" + lid.name + "' (no opening under it: its own diameter)"};
-  }
-  return std::nullopt;
-}
 
 double largest_radius(const CaseSpec& cs) {
   double r = 0.0;
@@ -65,23 +22,6 @@ double alpha_of(const CaseSpec& cs, const std::string& level) {
   for (const LevelSpec& l : cs.levels)
     if (l.name == level) return l.alpha;
   return 1.0;
-}
-
-// The region's box as the coupler builds it: rounded outward (up) to whole cells from min.
-struct Box {
-  Vec3 lo, hi;
-  bool contains(const Vec3& p) const {
-    return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z;
-  }
-};
-
-Box cell_box(const CouplingRegionSpec& r) {
-  Box b{r.min, r.min};
-  for (int a = 0; a < 3; ++a) {
-    const double n = std::max(1.0, std::ceil((r.max[a] - r.min[a]) / r.cell_size - 1e-9));
-    b.hi[a] = r.min[a] + n * r.cell_size;
-  }
-  return b;
 }
 
 // One region being checked: where its messages point and what they need.
@@ -115,83 +55,168 @@ void check_cells(const Check& c, RegionRuleReport& out) {
       kAdvisedCellDiameters, kAdvisedCellDiameters * c.d_coarse));
 }
 
-void check_top(const Check& c, const Box& box, const Orifice& o, RegionRuleReport& out) {
-  const double above = (box.hi.z - o.center.z) / o.size;
+// Ratios computed from rounded coordinates (a box of whole cells, a mesh's extents) meet a threshold they
+// equal in decimals: a top exactly 1.0 D0 above passes.
+constexpr double kEdge = 1e-9;
+
+bool downward(const Outlet& o, const Vec3& gravity) {
+  const double g = norm(gravity);
+  return g > 0.0 && dot(o.normal, gravity / g) >= kMeasuredTiltCos;
+}
+
+// How far the region's box reaches from the outlet's centre along its inward normal, and the face that
+// limits it (for an outlet in a floor: the box's top, max z).
+struct Reach {
+  double depth = INFINITY;  // [m]
+  int axis = 2;
+  bool upper = true;        // the limiting face is the box's max side on `axis`
+  const char* key() const { return upper ? "max" : "min"; }
+  char axis_name() const { return "xyz"[axis]; }
+  // The face's coordinate at which the region would reach `widths` D0.
+  double face_for(const Outlet& o, double widths) const {
+    return o.center[axis] - o.normal[axis] * widths * o.size();
+  }
+};
+
+Reach reach_of(const RegionBox& b, const Outlet& o) {
+  Reach r;
+  for (int a = 0; a < 3; ++a) {
+    const double in = -o.normal[a];
+    if (std::abs(in) < 1e-9) continue;
+    const double t = ((in > 0.0 ? b.hi[a] : b.lo[a]) - o.center[a]) / in;
+    if (t < r.depth) r = {t, a, in > 0.0};
+  }
+  return r;
+}
+
+std::string outlet_ref(const Outlet& o) {
+  return fmt::format("'{}', D0 = {:g} m, from {}", o.name, o.size(), o.from);
+}
+
+// An outlet the flow leaves downward: the region's top above it (the thresholds' own frame).
+void check_top(const Check& c, const RegionBox& box, const Outlet& o, RegionRuleReport& out) {
+  const double above = (box.hi.z - o.center.z) / o.size() + kEdge;
   if (above >= kOnePercentTopAboveOrifice) return;
+  const std::string is = fmt::format("the region's top is z = {:g} m, {:.2f} orifice diameters above the orifice ({})",
+                                     box.hi.z, above, outlet_ref(o));
   if (above >= kAdvisedTopAboveOrifice) {
     out.notes.push_back(fmt::format(
-        "{}: the region's top is z = {:g} m, {:.2f} orifice diameters above the orifice (D0 = {:g} m, from {}): "
-        "expect the discharge within about 3 % of a fully resolved run; for about 1 % raise max z to {:g} m "
-        "({:g} D0; silo_small: +1.2 % at 1.5 D0, +0.4 % at 2 D0), at the cost of more fine particles",
-        c.at("max"), box.hi.z, above, o.size, o.from, o.center.z + kOnePercentTopAboveOrifice * o.size,
-        kOnePercentTopAboveOrifice));
+        "{}: {}: expect the discharge through '{}' within about 3 % of a fully resolved run; for about 1 % raise max "
+        "z to {:g} m ({:g} D0; silo_small: +1.2 % at 1.5 D0, +0.4 % at 2 D0), at the cost of more fine particles",
+        c.at("max"), is, o.name, o.center.z + kOnePercentTopAboveOrifice * o.size(), kOnePercentTopAboveOrifice));
     return;
   }
   if (above >= kMinTopAboveOrifice) {
     out.warnings.push_back(fmt::format(
-        "{}: the region's top is z = {:g} m, {:.2f} orifice diameters above the orifice (D0 = {:g} m, from {}), "
-        "below the advised {:g}, the lowest height measured within 3 % of the reference (seven hoppers with their "
-        "tops at 1.13-1.5 D0, cases/hoppers/README.md); max z >= {:g} m is advised",
-        c.at("max"), box.hi.z, above, o.size, o.from, kAdvisedTopAboveOrifice,
-        o.center.z + kAdvisedTopAboveOrifice * o.size));
+        "{}: {}, below the advised {:g}, the lowest height measured within 3 % of the reference (seven hoppers with "
+        "their tops at 1.13-1.5 D0, cases/hoppers/README.md); max z >= {:g} m is advised",
+        c.at("max"), is, kAdvisedTopAboveOrifice, o.center.z + kAdvisedTopAboveOrifice * o.size()));
     return;
   }
   out.errors.push_back(fmt::format(
-      "{}: the region's top (its boundary surface, max z rounded up to whole {:g} m cells) is z = {:g} m, {:.2f} "
-      "orifice diameters above the orifice (z = {:g} m, D0 = {:g} m, from {}); at least {:g} D0 is needed: with the "
-      "boundary surface 0.6 D0 above the orifice the discharge was more than 10 % off the reference, at 1.1 D0 "
-      "within 3 %; raise max z to at least {:g} m, or give [orifice] if the orifice is another one",
-      c.at("max"), c.r.cell_size, box.hi.z, above, o.center.z, o.size, o.from, kMinTopAboveOrifice,
-      o.center.z + kMinTopAboveOrifice * o.size));
+      "{}: {} (its boundary surface: max z rounded up to whole {:g} m cells; the orifice at z = {:g} m); at least "
+      "{:g} D0 is needed: with the boundary surface 0.6 D0 above the orifice the discharge was more than 10 % off "
+      "the reference, at 1.1 D0 within 3 %; raise max z to at least {:g} m, or give [orifice] if the orifice is "
+      "another one",
+      c.at("max"), is, c.r.cell_size, o.center.z, kMinTopAboveOrifice, o.center.z + kMinTopAboveOrifice * o.size()));
 }
 
-void check_passage(const Check& c, const Box& box, const Orifice& o, RegionRuleReport& out) {
-  const double ratio = o.size / c.d_coarse;
-  if (ratio >= kJammingRatio) return;
+// An outlet in a side wall or an inclined one: the region's depth along the outlet's inward normal. The
+// 1 D0 minimum carries over; no measurement backs the rest, so never a promise, always a warning.
+void check_depth_tilted(const Check& c, const RegionBox& box, const Outlet& o, const Vec3& gravity,
+                        RegionRuleReport& out) {
+  const Reach r = reach_of(box, o);
+  const double deep = r.depth / o.size() + kEdge;
+  const double g = norm(gravity);
+  const double angle = g > 0.0 ? std::acos(std::clamp(dot(o.normal, gravity / g), -1.0, 1.0)) * 180.0 / std::numbers::pi : 90.0;
+  const std::string is = fmt::format(
+      "the region reaches {:.2f} outlet widths into the vessel from outlet {} along its inward normal {} (to its "
+      "{} {} face at {:g} m)",
+      deep, outlet_ref(o), fmt::format("[{:.3g}, {:.3g}, {:.3g}]", 0.0 - o.normal.x, 0.0 - o.normal.y, 0.0 - o.normal.z),
+      r.key(), r.axis_name(), r.upper ? box.hi[r.axis] : box.lo[r.axis]);
+  if (deep < kMinTopAboveOrifice) {
+    out.errors.push_back(fmt::format(
+        "{}: {}; at least {:g} D0 is needed (with a floor outlet's boundary surface 0.6 D0 above it the discharge "
+        "was more than 10 % off); {} {} {} to {} {:g} m",
+        c.at(r.key()), is, kMinTopAboveOrifice, r.upper ? "raise" : "lower", r.key(), r.axis_name(),
+        r.upper ? "at least" : "at most", r.face_for(o, kAdvisedTopAboveOrifice)));
+    return;
+  }
+  out.warnings.push_back(fmt::format(
+      "{}: {}; the outlet faces {:.0f} degrees away from gravity, and the region rules were measured on outlets the "
+      "flow leaves downward (the one side outlet measured, with its region 1.3 D0 deep, was +5.1 % off): this "
+      "region's accuracy is not vouched for; compare it with a fully resolved run (mlcg study)",
+      c.at(r.key()), is, angle));
+}
+
+void check_passage(const Check& c, const Outlet& o, bool held, RegionRuleReport& out) {
+  const double ratio = o.size() / c.d_coarse;
+  if (ratio + kEdge >= kJammingRatio) return;
   const std::string what = fmt::format(
-      "{}: the orifice (D0 = {:g} m, from {}) is only {:.2f} coarse diameters wide ({}), below the jamming ratio "
-      "D0 / d = {:g} for spheres through a circular orifice (Zuriguel et al., Phys. Rev. E 71, 051303, 2005)",
-      c.at("coarse"), o.size, o.from, ratio, c.d_text, kJammingRatio);
-  if (box.contains(o.center)) {
-    out.warnings.push_back(what + "; the fine region contains the orifice, so the coarse level's flow through it "
+      "{}: the orifice ({}) is only {:.2f} coarse diameters wide ({}), below the jamming ratio D0 / d = {:g} for "
+      "spheres through a circular orifice (Zuriguel et al., Phys. Rev. E 71, 051303, 2005)",
+      c.at("coarse"), outlet_ref(o), ratio, c.d_text, kJammingRatio);
+  if (held) {
+    out.warnings.push_back(what + "; a fine region contains the orifice, so the coarse level's flow through it "
                                   "relies on the correction cells");
     return;
   }
   out.errors.push_back(what + fmt::format(
-      " and the fine region (cells from {:g} to {:g} m in z) does not contain it, so the coarse level would jam; "
-      "extend the region over the orifice at [{:g}, {:g}, {:g}], or couple a coarse level with D0 / d >= {:g}",
-      box.lo.z, box.hi.z, o.center.x, o.center.y, o.center.z, kJammingRatio));
+      " and no fine region over level '{}' contains it, so the coarse level would jam; extend the region over the "
+      "orifice at [{:g}, {:g}, {:g}], or couple a coarse level with D0 / d >= {:g}",
+      c.r.coarse, o.center.x, o.center.y, o.center.z, kJammingRatio));
+}
+
+// The outlets a region is judged against: those its box contains, else the nearest one.
+std::vector<const Outlet*> judged_outlets(const RegionBox& box, const OutletScan& scan) {
+  std::vector<const Outlet*> in;
+  const Outlet* nearest = nullptr;
+  for (const Outlet& o : scan.outlets) {
+    if (box.contains(o.center)) in.push_back(&o);
+    if (!nearest || box.distance(o.center) < box.distance(nearest->center)) nearest = &o;
+  }
+  if (in.empty() && nearest) in.push_back(nearest);
+  return in;
+}
+
+bool held_over(const CaseSpec& cs, const std::string& coarse, const Outlet& o) {
+  return std::any_of(cs.coupling->regions.begin(), cs.coupling->regions.end(), [&](const CouplingRegionSpec& r) {
+    return r.coarse == coarse && region_box(r).contains(o.center);
+  });
+}
+
+// A probe no fine region holds is read from a coarse level: say so, and what would hold it.
+void check_probes(const CaseSpec& cs, RegionRuleReport& out) {
+  double finest = INFINITY;
+  for (const LevelSpec& l : cs.levels) finest = std::min(finest, l.alpha);
+  for (size_t k = 0; k < cs.probes.size(); ++k) {
+    const ProbeSpec& p = cs.probes[k];
+    const LevelSpec& l = cs.levels[resolving_level(cs, p.point)];
+    if (l.alpha <= finest) continue;
+    size_t best = 0;
+    for (size_t i = 1; i < cs.coupling->regions.size(); ++i)
+      if (region_box(cs.coupling->regions[i]).distance(p.point) < region_box(cs.coupling->regions[best]).distance(p.point))
+        best = i;
+    const RegionBox grown = region_box(cs.coupling->regions[best]).grown_to(p.point);
+    out.warnings.push_back(fmt::format(
+        "{}: probes[{}].point: probe '{}' at [{:g}, {:g}, {:g}] lies in no fine region, so its mass flow is read "
+        "from level '{}' (alpha {:g}), not from a fine level; coupling.regions[{}] would hold it with min = [{:g}, "
+        "{:g}, {:g}], max = [{:g}, {:g}, {:g}]",
+        p.loc.str(), k, p.name, p.point.x, p.point.y, p.point.z, l.name, l.alpha, best, grown.lo.x, grown.lo.y,
+        grown.lo.z, grown.hi.x, grown.hi.y, grown.hi.z));
+  }
 }
 
 }  // namespace
 
-std::optional<Orifice> find_orifice(const CaseSpec& cs) {
-  if (cs.orifice) return Orifice{cs.orifice->center, cs.orifice->size(), "[orifice] (" + cs.orifice->loc.str() + ")"};
-  const auto removed = removed_walls(cs);
-  if (auto o = orifice_under_lid(cs, removed)) return o;
-  const WallSpec* low = nullptr;  // no lid: the lowest cone narrowing downward to an opening
-  for (const WallSpec& w : cs.walls)
-    if (w.type == WallType::Cone && !removed.count(w.name) && w.radius_bottom > 0.0 && w.radius_bottom < w.radius_top &&
-        (!low || (w.center + w.bottom * unit(w.axis)).z < (low->center + low->bottom * unit(low->axis)).z))
-      low = &w;
-  if (low)
-    return Orifice{low->center + low->bottom * unit(low->axis), 2.0 * low->radius_bottom,
-                   "the bottom of cone '" + low->name + "'"};
-  return std::nullopt;
-}
-
-RegionRuleReport check_region_rules(const CaseSpec& cs) {
+RegionRuleReport check_region_rules(const CaseSpec& cs, const OutletScan& scan) {
   RegionRuleReport out;
   if (!cs.coupling) return out;
-  const auto orifice = find_orifice(cs);
-  if (orifice)
-    out.notes.push_back(fmt::format("{}: orifice at [{:g}, {:g}, {:g}], D0 = {:g} m, from {} (the region rules' "
-                                    "reference; [orifice] sets another)",
-                                    cs.path, orifice->center.x, orifice->center.y, orifice->center.z, orifice->size,
-                                    orifice->from));
-  else
-    out.notes.push_back(cs.path + ": no orifice found (no removed lid, no cone narrowing to an opening, no [orifice]); "
-                                  "the orifice rules of the coupling regions are skipped; give [orifice] to check them");
+  if (scan.outlets.empty())
+    out.notes.push_back(cs.path + ": no outlet found (no opening in the walls, none under a removed lid, no "
+                                  "[orifice]); the outlet rules of the coupling regions are skipped; give [orifice] "
+                                  "or [[orifices]] to check them");
+  check_probes(cs, out);
   const double r_max = largest_radius(cs);
   if (r_max <= 0.0) {
     out.notes.push_back(cs.path + ": no [[insertion]] or [[particles]] radius; the region rules are skipped");
@@ -205,10 +230,14 @@ RegionRuleReport check_region_rules(const CaseSpec& cs) {
                   fmt::format("level '{}': alpha {:g} x the largest insertion diameter {:g} mm = {:g} mm", r.coarse,
                               alpha, 2e3 * r_max, 1e3 * d)};
     check_cells(c, out);
-    if (!orifice) continue;
-    const Box box = cell_box(r);
-    check_top(c, box, *orifice, out);
-    check_passage(c, box, *orifice, out);
+    const RegionBox box = region_box(r);
+    for (const Outlet* o : judged_outlets(box, scan)) {
+      if (downward(*o, cs.gravity))
+        check_top(c, box, *o, out);
+      else
+        check_depth_tilted(c, box, *o, cs.gravity, out);
+      check_passage(c, *o, held_over(cs, r.coarse, *o), out);
+    }
   }
   return out;
 }

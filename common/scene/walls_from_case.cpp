@@ -57,18 +57,20 @@ WallSet walls_from_case(const config::CaseSpec& cs, const MaterialTable& mt) {
     if (w.type == config::WallType::Mesh) continue;
     walls.add_analytic(w.name, mt.index_of(w.material), make_analytic(w));
   }
-  for (const auto& w : cs.walls) {
-    if (w.type != config::WallType::Mesh) continue;
-    const std::filesystem::path file = std::filesystem::path(cs.dir) / w.file;
-    auto tris = read_stl(file.string());
-    for (auto& t : tris) {
-      t.a = t.a * w.scale + w.offset;
-      t.b = t.b * w.scale + w.offset;
-      t.c = t.c * w.scale + w.offset;
-    }
-    walls.add_mesh(w.name, mt.index_of(w.material), std::make_shared<const TriangleMesh>(tris, file.string()));
-  }
+  for (const auto& w : cs.walls)
+    if (w.type == config::WallType::Mesh) walls.add_mesh(w.name, mt.index_of(w.material), mesh_from_case(cs, w));
   return walls;
+}
+
+std::shared_ptr<const TriangleMesh> mesh_from_case(const config::CaseSpec& cs, const config::WallSpec& w) {
+  const std::filesystem::path file = std::filesystem::path(cs.dir) / w.file;
+  auto tris = read_stl(file.string());
+  for (auto& t : tris) {
+    t.a = t.a * w.scale + w.offset;
+    t.b = t.b * w.scale + w.offset;
+    t.c = t.c * w.scale + w.offset;
+  }
+  return std::make_shared<const TriangleMesh>(tris, file.string());
 }
 
 }  // namespace mlcg

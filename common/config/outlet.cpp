@@ -1,0 +1,18 @@
+#include "config/outlet.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+namespace mlcg::config {
+
+std::string outlet_text(const Outlet& o) {
+  auto c = [](double x) { return std::abs(x) < 1e-12 ? 0.0 : x; };
+  auto v = [&](const Vec3& p) { return fmt::format("[{:.4g}, {:.4g}, {:.4g}]", c(p.x), c(p.y), c(p.z)); };
+  const std::string size = o.shape == "circle" ? fmt::format("D0 = {:.4g} m", o.width)
+                                               : fmt::format("{:.4g} x {:.4g} m (D0 = its width)", o.width, o.length);
+  return fmt::format("{}: {} {} at {}, flow leaves along {}, from {}{}", o.name, o.shape, size, v(o.center),
+                     v(o.normal), o.from, o.opened_by.empty() ? ", open from the start" : ", opens with " + o.opened_by);
+}
+
+}  // namespace mlcg::config
