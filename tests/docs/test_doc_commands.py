@@ -51,8 +51,8 @@ class Checker:
 
     def subcommands(self):
         text = self.help_text("") or ""
-        # CLI11 lists them under "SUBCOMMANDS:", one per line: "  run   Run a case"
-        part = text.split("SUBCOMMANDS:", 1)[-1]
+        # CLI11 lists them under "Subcommands:", one per line: "  run   run a case"
+        part = re.split(r"^subcommands:", text, maxsplit=1, flags=re.I | re.M)[-1]
         return {m.group(1) for m in re.finditer(r"^\s+([a-z][a-z_-]*)\b", part, re.M)}
 
     def check_case(self, where, case):
