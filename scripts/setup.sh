@@ -8,14 +8,19 @@
 #
 #   scripts/setup.sh --with-paraview   also installs xvfb + xauth for scripts/render_paraview.py
 #       (Debian's ParaView renders only through an X server; xvfb-run provides one).
+#   scripts/setup.sh --with-bench      also installs liggghts (Debian's LIGGGHTS 3.8.0), which
+#       build/bin/mlcg_bench runs on the same scenes for its speed ratio (docs/performance.md);
+#       without it the bench prints `liggghts=absent`. No test needs it.
 set -e
 cd "$(dirname "$0")/.."
 
 with_paraview=""
+with_bench=""
 for arg in "$@"; do
   case "$arg" in
     --with-paraview) with_paraview=1 ;;
-    *) echo "setup: unknown option '$arg' (allowed: --with-paraview)" >&2; exit 2 ;;
+    --with-bench) with_bench=1 ;;
+    *) echo "setup: unknown option '$arg' (allowed: --with-paraview, --with-bench)" >&2; exit 2 ;;
   esac
 done
 
@@ -27,6 +32,7 @@ libprotobuf-dev protobuf-compiler libzmq3-dev cppzmq-dev libtomlplusplus-dev lib
 libspdlog-dev libfmt-dev libgtest-dev libbenchmark-dev nlohmann-json3-dev python3-h5py python3-matplotlib \
 clang libclang-rt-14-dev iproute2 slurm-wlm munge paraview python3-paraview"
 [ -z "$with_paraview" ] || PACKAGES="$PACKAGES xvfb xauth"
+[ -z "$with_bench" ] || PACKAGES="$PACKAGES liggghts"
 
 missing=""
 for p in $PACKAGES; do
