@@ -275,12 +275,22 @@ TEST(RegionRulesPerOutlet, OneRegionPerOutletPassesAndEachIsJudgedByItsOwn) {
   const CaseSpec cs = two_hole_case(kTwoFineLevels);
   const auto r = check_region_rules(cs, mlcg::find_outlets(cs));
   EXPECT_TRUE(r.errors.empty()) << all(r.errors);
-  // region 0 against hole a (D0 3 cm, top 4 cm above it: 1.33 D0), region 1 against hole b (2 D0: no note)
-  EXPECT_TRUE(has(r.notes, "coupling.regions[0].max: the region's top is z = 0.04 m, 1.33 orifice diameters above "
-                           "the orifice ('outlet0', D0 = 0.03 m"))
-      << all(r.notes);
-  EXPECT_FALSE(has(r.notes, "coupling.regions[1].max")) << all(r.notes);
+  // region 0 against hole a (D0 3 cm, top 4 cm above it: 1.33 D0, passed), region 1 against hole b
   EXPECT_FALSE(has(r.warnings, "does not contain")) << all(r.warnings);
+  EXPECT_FALSE(has(r.warnings, "orifice diameters above")) << all(r.warnings);
+  // but two regions over one coarse level were measured far off: no promise, a warning on each
+  for (const char* key : {"coupling.regions[0].coarse: level 'coarse' is the coarse level of 2 fine regions",
+                          "coupling.regions[1].coarse: level 'coarse' is the coarse level of 2 fine regions"})
+    EXPECT_TRUE(has(r.warnings, key)) << all(r.warnings);
+  EXPECT_FALSE(has(r.notes, "within about 3 %")) << all(r.notes);
+  // the same region 0 alone over its coarse level: judged by hole a, with the 3 % note
+  CaseSpec one = cs;
+  one.coupling->regions.pop_back();
+  const auto alone = check_region_rules(one, mlcg::find_outlets(one));
+  EXPECT_TRUE(has(alone.notes, "coupling.regions[0].max: the region's top is z = 0.04 m, 1.33 orifice diameters above "
+                               "the orifice ('outlet0', D0 = 0.03 m"))
+      << all(alone.notes);
+  EXPECT_FALSE(has(alone.warnings, "fine regions")) << all(alone.warnings);
 }
 
 TEST(RegionRulesPerOutlet, EachProbeIsReadWhereAFineRegionHoldsItOrNamedBeforeStepOne) {
