@@ -122,12 +122,13 @@ struct RegionInfo {
 };
 
 // The coupler's grids (coupling_from_case: the coupler's own code), one line per region with the verdict
-// of the region rules. Throws std::invalid_argument as the coupler would refuse the case.
-std::vector<RegionInfo> print_regions(const config::CaseSpec& cs, const config::RegionRuleReport& rules) {
+// of the region rules (none when `rules` is null). Throws std::invalid_argument as the coupler would refuse
+// the case.
+std::vector<RegionInfo> print_regions(const config::CaseSpec& cs, const config::RegionRuleReport* rules) {
   std::vector<RegionInfo> out;
   if (!cs.coupling) return out;
   const auto cc = coupling::coupling_from_case(cs);
-  std::printf("coupling: interval %.4g s, %zu region(s)\n", cs.coupling->interval, cc.cfg.regions.size());
+  if (rules) std::printf("coupling: interval %.4g s, %zu region(s)\n", cs.coupling->interval, cc.cfg.regions.size());
   for (size_t r = 0; r < cc.cfg.regions.size(); ++r) {
     const auto& spec = cs.coupling->regions[r];
     const bus::CouplingGeometry geo(cc.cfg.regions[r].grid);
@@ -138,8 +139,10 @@ std::vector<RegionInfo> print_regions(const config::CaseSpec& cs, const config::
       info.inside_volume += geo.inside_volume(c) * h * h * h;
       transition += geo.is_transition(c) ? 1 : 0;
     }
+    out.push_back(info);
+    if (!rules) continue;
     const std::string key = fmt::format("coupling.regions[{}]", r);
-    const auto warnings = std::count_if(rules.warnings.begin(), rules.warnings.end(),
+    const auto warnings = std::count_if(rules->warnings.begin(), rules->warnings.end(),
                                         [&](const std::string& w) { return w.find(key) != std::string::npos; });
     const auto& g = geo.grid();
     std::printf("region %zu ('%s' -> '%s'): %u x %u x %u cells of %g m, %zu inside the walls (%zu transition, "
@@ -148,7 +151,6 @@ std::vector<RegionInfo> print_regions(const config::CaseSpec& cs, const config::
                 geo.cells() - transition, geo.faces(), geo.top_faces(), geo.faces() - geo.top_faces(),
                 info.inside_volume,
                 warnings == 0 ? "passed" : fmt::format("passed with {} warning(s) (above)", warnings).c_str());
-    out.push_back(info);
   }
   return out;
 }
@@ -285,6 +287,18 @@ void print_estimate(const config::CaseSpec& cs, const std::vector<LevelCost>& co
 
 }  // namespace
 
+double particle_steps_to(const config::CaseSpec& cs, double end) {
+  double ps = 0.0;
+  for (const auto& c : level_costs(cs, print_regions(cs, nullptr), end)) ps += c.particle_steps;
+  return ps;
+}
+
+double estimated_end(const config::CaseSpec& cs) {
+  double fill_alpha = 1.0;
+  for (const auto& l : cs.levels) fill_alpha = std::max(fill_alpha, l.alpha);
+  return end_time(cs, fill_alpha).earliest;
+}
+
 int check_case(const CheckOptions& o) {
   try {
     const PreparedCase p = prepare_case(o.case_file, o.hosts, o.curve);  // exactly what `mlcg run` checks
@@ -295,7 +309,7 @@ int check_case(const CheckOptions& o) {
     for (size_t i = 0; i < cs.bases.size(); ++i)  // base = ..., nearest first
       std::printf("  %s %s\n", i == 0 ? "a variant of" : "  itself a variant of", cs.bases[i].c_str());
     print_outlets(p.outlets);
-    const auto regions = print_regions(cs, p.regions);
+    const auto regions = print_regions(cs, &p.regions);
     print_probes(cs);
     double fill_alpha = 1.0;
     for (const auto& l : cs.levels) fill_alpha = std::max(fill_alpha, l.alpha);

@@ -6,6 +6,7 @@
 // particles per level, the particle-steps and the wall time on this machine (throughput.hpp).
 #include <string>
 
+#include "config/case_spec.hpp"
 #include "throughput.hpp"
 
 namespace mlcg::launcher {
@@ -21,5 +22,11 @@ struct CheckOptions {
 // 0 when `mlcg run` would start the case; 2 with `mlcg run`'s messages ("error: FILE:LINE: KEY: ...") on
 // stderr when it would be refused, by the launcher or by a level's guard before step 1.
 int check_case(const CheckOptions& o);
+
+// The cost model `mlcg check` prints: the particle-steps of every level to simulated time `end` (each level's
+// particles as counted or estimated there), and the case's end time (its earliest, for a conditional end;
+// <= 0 when not known before the run). Throw as `mlcg check` would refuse the case.
+double particle_steps_to(const config::CaseSpec& cs, double end);
+double estimated_end(const config::CaseSpec& cs);
 
 }  // namespace mlcg::launcher

@@ -5,6 +5,7 @@
 // the same checks without starting anything and estimates the run's cost.
 // `mlcg study CASE_DIR` runs a case folder's variants and compares their error and cost.
 // `mlcg submit CASE` writes a Slurm batch script for the case and submits it.
+// `mlcg plan CASE --out VARIANT` writes the MLCG variant of a single-level case.
 #include <CLI/CLI.hpp>
 
 #include <cstdlib>
@@ -13,6 +14,7 @@
 #include "check.hpp"
 #include "control.hpp"
 #include "hierarchy.hpp"
+#include "plan.hpp"
 #include "run_case.hpp"
 #include "status.hpp"
 #include "study.hpp"
@@ -28,7 +30,23 @@ struct Args {
   bool quiet = false, curve = false, calibrate = false, no_calibrate = false, no_plots = false, previous = false;
   launcher::CheckOptions check;
   launcher::StudyOptions study;
+  launcher::PlanOptions plan;
 };
+
+CLI::App* declare_plan(CLI::App& app, Args& a) {
+  auto* plan = app.add_subcommand("plan", "write the MLCG variant of a single-level case: levels, one fine region "
+                                          "per outlet, cells, from the region rules' evidence");
+  plan->add_option("case", a.plan.case_file, "the single-level case (the fully resolved reference)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  plan->add_option("--out", a.plan.out, "the variant file to write (must not exist)")->required();
+  plan->add_option("--error", a.plan.error, "target error of each outlet's discharge in % (default 3; >= 1)");
+  plan->add_option("--levels", a.plan.levels, "levels of the hierarchy: 2 (default) or 3");
+  plan->add_option("--reference-run", a.plan.reference_run,
+                   "a completed run of the case: its events' firing times become the variant's")
+      ->check(CLI::ExistingDirectory);
+  return plan;
+}
 
 CLI::App* declare_run(CLI::App& app, Args& a) {
   auto* run = app.add_subcommand("run", "run a case");
@@ -129,6 +147,7 @@ int main(int argc, char** argv) {
   auto* submit = declare_submit(app, a);
   auto* study = declare_study(app, a);
   auto* resume = declare_resume(app, a);
+  auto* plan = declare_plan(app, a);
   auto* ps = app.add_subcommand("ps", "processes and progress of a multi-level run");
   ps->add_option("run_dir", a.run_dir, "run folder")->required()->check(CLI::ExistingDirectory);
   auto* status = app.add_subcommand("status", "the multi-level runs under ./runs and their state");
@@ -137,6 +156,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   if (run->parsed()) return launcher::run_case(a.case_file, a.out_dir, a.quiet, a.hosts, a.curve);
   if (check->parsed()) return check_command(a);
+  if (plan->parsed()) return launcher::plan_case(a.plan);
   if (submit->parsed()) return launcher::submit_case(a.case_file, a.out_dir, a.quiet, submit->remaining());
   a.study.plots = !a.no_plots;
   if (study->parsed()) return launcher::run_study(a.study);

@@ -6,8 +6,6 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -17,45 +15,19 @@
 #include "scene/outlets.hpp"
 #include "case_parser_support.hpp"
 #include "messages.hpp"
+#include "stl_support.hpp"
 
 namespace {
 
 using namespace mlcg::config;
 namespace fs = std::filesystem;
 using mlcg::Vec3;
+using mlcg::test::in_box;
+using mlcg::test::plate;
+using mlcg::test::Quad;
+using mlcg::test::write_stl;
 
 // ---- meshes made of square cells -------------------------------------------------------
-
-struct Quad {
-  Vec3 a, b, c, d;  // counter-clockwise
-};
-
-// A plate of n_u x n_v square cells of side h from `origin` along u and v, without the cells `hole` marks.
-void plate(std::vector<Quad>& out, Vec3 origin, Vec3 u, Vec3 v, int n_u, int n_v, double h,
-           const std::function<bool(int, int)>& hole = [](int, int) { return false; }) {
-  for (int i = 0; i < n_u; ++i)
-    for (int j = 0; j < n_v; ++j) {
-      if (hole(i, j)) continue;
-      const Vec3 p = origin + (i * h) * u + (j * h) * v;
-      out.push_back({p, p + h * u, p + h * u + h * v, p + h * v});
-    }
-}
-
-void write_stl(const fs::path& file, const std::vector<Quad>& quads) {
-  std::ofstream f(file);
-  f.precision(17);
-  auto tri = [&](const Vec3& a, const Vec3& b, const Vec3& c) {
-    f << "facet normal 0 0 0\nouter loop\n";
-    for (const Vec3* p : {&a, &b, &c}) f << "vertex " << p->x << " " << p->y << " " << p->z << "\n";
-    f << "endloop\nendfacet\n";
-  };
-  f << "solid test\n";
-  for (const Quad& q : quads) {
-    tri(q.a, q.b, q.c);
-    tri(q.a, q.c, q.d);
-  }
-  f << "endsolid test\n";
-}
 
 fs::path scratch(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("mlcg_test_outlets_" + name);
@@ -64,7 +36,6 @@ fs::path scratch(const std::string& name) {
   return d;
 }
 
-bool in_box(int i, int j, int i0, int i1, int j0, int j1) { return i >= i0 && i < i1 && j >= j0 && j < j1; }
 
 // A floor 0.2 x 0.1 m at z = 0 of 5 mm cells with two square holes: 3 cm at x = -0.05, 2 cm at x = 0.04.
 void two_hole_floor(const fs::path& file) {

@@ -1,0 +1,342 @@
+#include "plan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "check.hpp"
+#include "config/case_parser.hpp"
+#include "config/region_rules.hpp"
+#include "config/regions.hpp"
+#include "from_case.hpp"
+#include "io/atomic_file.hpp"
+#include "level/stability_preview.hpp"
+#include "checkpoints.hpp"
+#include "scene/outlets.hpp"
+
+namespace fs = std::filesystem;
+
+namespace mlcg::launcher {
+namespace {
+
+using config::Outlet;
+using config::RegionBox;
+
+struct PlanError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct Region {
+  std::string coarse, fine;
+  RegionBox box;
+  double cell = 0.0;
+  std::vector<const Outlet*> outlets;
+  std::vector<std::string> why;
+};
+
+// A level of the plan: the reference's level at alpha x factor, dt scaled alike.
+struct Level {
+  std::string name;
+  double alpha, dt;
+  int ranks;
+};
+
+double clean(double x) { return std::round(x * 1e9) / 1e9 + 0.0; }
+std::string num(double x) { return fmt::format("{:.6g}", clean(x)); }
+std::string vec(const Vec3& v) { return fmt::format("[{}, {}, {}]", num(v.x), num(v.y), num(v.z)); }
+
+bool downward(const Outlet& o, const Vec3& g) {
+  return norm(g) > 0.0 && dot(o.normal, g / norm(g)) >= config::kMeasuredTiltCos;
+}
+
+// The box around an outlet in its own frame: `depth` along the inward normal, `beyond` past the outlet,
+// `half` across it; its axis-aligned hull snapped outward to whole cells counted from the outlet's centre.
+RegionBox outlet_box(const Outlet& o, double depth, double beyond, double half, double cell) {
+  const Vec3 n = o.normal;
+  const Vec3 helper = std::abs(n.x) <= std::abs(n.y) && std::abs(n.x) <= std::abs(n.z) ? Vec3{1, 0, 0}
+                      : std::abs(n.y) <= std::abs(n.z)                             ? Vec3{0, 1, 0}
+                                                                                    : Vec3{0, 0, 1};
+  const Vec3 a = normalized(cross(n, helper)), b = cross(n, a);
+  RegionBox box{o.center, o.center};
+  for (double sn : {beyond, -depth})
+    for (double sa : {-half, half})
+      for (double sb : {-half, half}) box = box.grown_to(o.center + sn * n + sa * a + sb * b);
+  for (int k = 0; k < 3; ++k) {
+    box.lo[k] = o.center[k] - std::ceil((o.center[k] - box.lo[k]) / cell - 1e-9) * cell;
+    box.hi[k] = o.center[k] + std::ceil((box.hi[k] - o.center[k]) / cell - 1e-9) * cell;
+  }
+  return box;
+}
+
+RegionBox hull(const RegionBox& a, const RegionBox& b) { return a.grown_to(b.lo).grown_to(b.hi); }
+
+bool near(const RegionBox& a, const RegionBox& b, double gap) {
+  for (int k = 0; k < 3; ++k)
+    if (a.lo[k] > b.hi[k] + gap || b.lo[k] > a.hi[k] + gap) return false;
+  return true;
+}
+
+// A box kept inside the domain, whole cells dropped from the side that reaches out (the parser refuses a region
+// outside the domain).
+bool clip_to_domain(RegionBox& box, double cell, const config::DomainSpec& d) {
+  bool clipped = false;
+  for (int k = 0; k < 3; ++k) {
+    while (box.lo[k] < d.min[k] - 1e-12 && box.hi[k] - box.lo[k] > 1.5 * cell) box.lo[k] += cell, clipped = true;
+    while (box.hi[k] > d.max[k] + 1e-12 && box.hi[k] - box.lo[k] > 1.5 * cell) box.hi[k] -= cell, clipped = true;
+  }
+  return clipped;
+}
+
+double largest_radius(const config::CaseSpec& cs) {
+  double r = 0.0;
+  for (const auto& in : cs.insertions) r = std::max(r, in.radius.largest());
+  for (const auto& p : cs.particles) r = std::max(r, p.radius);
+  return r;
+}
+
+// Cells of kPlanCellDiameters coarse diameters, to the millimetre.
+double cell_for(const config::CaseSpec& cs, double coarse_alpha) {
+  return std::max(0.001, std::round(kPlanCellDiameters * 2.0 * largest_radius(cs) * coarse_alpha * 1e3) / 1e3);
+}
+
+// One region per outlet around the finest level; regions that would touch become one.
+// (Level names are given once the regions are known: each fine region needs a fine level of its own.)
+std::vector<Region> fine_regions(const config::CaseSpec& cs, const std::vector<Outlet>& outlets, double coarse_alpha,
+                                 double depth_widths) {
+  const double h = cell_for(cs, coarse_alpha);
+  std::vector<Region> out;
+  for (const Outlet& o : outlets) {
+    Region r{"", "", outlet_box(o, depth_widths * o.size(), h, 0.5 * o.length + o.size(), h), h, {&o}, {}};
+    r.why.push_back(fmt::format("{}: {:g} D0 deep along its inward normal, one cell past it, its half-length + "
+                                "1 D0 across it", o.name, depth_widths));
+    auto merge = std::find_if(out.begin(), out.end(), [&](const Region& q) { return near(q.box, r.box, h); });
+    if (merge == out.end()) {
+      out.push_back(r);
+      continue;
+    }
+    merge->box = hull(merge->box, r.box);
+    merge->outlets.push_back(&o);
+    merge->why.push_back(r.why.front() + "; its region would touch this one's: one region around both");
+  }
+  for (auto& r : out) {
+    if (clip_to_domain(r.box, h, cs.domain)) r.why.push_back("whole cells dropped where it reached outside [domain]");
+    r.why.push_back(fmt::format("cells of {:g} m: {:g} coarse diameters ({:g} mm at alpha {:g})", h,
+                                h / (2e3 * largest_radius(cs) * coarse_alpha) * 1e3, 2e3 * largest_radius(cs) * coarse_alpha,
+                                coarse_alpha));
+  }
+  return out;
+}
+
+// Every probe inside a finest region: the nearest one grows to hold it.
+void hold_probes(const config::CaseSpec& cs, std::vector<Region>& regions) {
+  for (const auto& p : cs.probes) {
+    if (std::any_of(regions.begin(), regions.end(), [&](const Region& r) { return r.box.contains(p.point); }))
+      continue;
+    auto r = std::min_element(regions.begin(), regions.end(), [&](const Region& a, const Region& b) {
+      return a.box.distance(p.point) < b.box.distance(p.point);
+    });
+    const RegionBox grown = r->box.grown_to(p.point);
+    r->box.lo = grown.lo;  // whole cells from min: the top rounds up when read
+    r->box.hi = grown.hi;
+    r->why.push_back(fmt::format("grown to hold probe '{}' at {}", p.name, vec(p.point)));
+  }
+}
+
+// The coarsest level's region around each fine one: two of its cells deeper, one wider, as silo_paper's three
+// levels (the middle region's top 3.5 D0 above the orifice).
+Region outer_region(const config::CaseSpec& cs, const Region& inner, const Level& coarsest) {
+  const double h = cell_for(cs, coarsest.alpha);
+  Region r{coarsest.name, inner.coarse, inner.box, h, inner.outlets, {}};
+  for (const Outlet* o : inner.outlets) {
+    const Vec3 in = -1.0 * o->normal;
+    for (int k = 0; k < 3; ++k) {
+      const double grow_lo = in[k] < -0.5 ? 2.0 * h : h, grow_hi = in[k] > 0.5 ? 2.0 * h : h;
+      r.box.lo[k] = std::min(r.box.lo[k], inner.box.lo[k] - grow_lo);
+      r.box.hi[k] = std::max(r.box.hi[k], inner.box.hi[k] + grow_hi);
+    }
+  }
+  r.why.push_back(fmt::format("around region of level '{}': two {:g} m cells deeper along the outlets' inward "
+                              "normal, one wider", inner.fine, h));
+  if (clip_to_domain(r.box, h, cs.domain)) r.why.push_back("whole cells dropped where it reached outside [domain]");
+  return r;
+}
+
+// The levels of the plan, coarsest first: the reference's level as each fine region's own finest level (a fine
+// level belongs to one region), coarse levels at 2x (and 4x) its alpha with dt scaled alike; the coarsest is
+// shared. Names the regions' levels. One region: "coarse" / "fine", as the shipped hierarchies.
+std::vector<Level> plan_levels(const config::CaseSpec& cs, int count, std::vector<Region>& inner,
+                               std::vector<Region>& outer) {
+  const auto& ref = cs.levels.front();
+  auto level = [&](const std::string& name, double f, int ranks) { return Level{name, ref.alpha * f, ref.dt * f, ranks}; };
+  std::vector<Level> out{level(count == 3 ? "coarsest" : "coarse", count == 3 ? 4.0 : 2.0, 1)};
+  for (size_t k = 0; k < inner.size(); ++k) {
+    const std::string tag = inner.size() > 1 ? std::to_string(k) : "";
+    inner[k].coarse = count == 3 ? "coarse" + tag : "coarse";
+    inner[k].fine = "fine" + tag;
+    if (count == 3) out.push_back(level(inner[k].coarse, 2.0, 1));
+    out.push_back(level(inner[k].fine, 1.0, ref.ranks));
+  }
+  if (count == 3)
+    for (const auto& r : inner) outer.push_back(outer_region(cs, r, out.front()));
+  return out;
+}
+
+// Each event at a fixed time: the time it fired in the reference run, else its `latest`.
+std::string events_text(const config::CaseSpec& cs, const std::string& reference_run, std::vector<std::string>& why) {
+  nlohmann::json fired = nlohmann::json::array();
+  if (!reference_run.empty()) {
+    const auto s = read_json_or_null(fs::path(reference_run) / "summary.json");
+    if (!s.is_object()) throw PlanError(reference_run + ": no readable summary.json; give a run folder of the case");
+    fired = s.value("events", nlohmann::json::array());
+  }
+  std::string out;
+  for (const auto& e : cs.events) {
+    double at = e.at;
+    if (at < 0.0) {
+      for (const auto& f : fired)
+        if (f.value("name", "") == e.name && f.value("fired", false)) at = f.value("time", -1.0);
+      if (at >= 0.0) {
+        why.push_back(fmt::format("event '{}' at t = {:g} s: when it fired in {}", e.name, at, reference_run));
+      } else if (std::isfinite(e.latest)) {
+        at = e.latest;
+        why.push_back(fmt::format("event '{}' at its latest, t = {:g} s: a hierarchy's levels must open together, "
+                                  "so a condition needs a fixed time; give --reference-run RUN (a run of the case) "
+                                  "to use the time it fired there", e.name, at));
+      } else {
+        throw PlanError(fmt::format("{}: event '{}' fires on a condition with no `latest`: a hierarchy's levels must "
+                                    "open together; give --reference-run RUN (a completed run of the case) to take the "
+                                    "time it fired there", e.loc.str(), e.name));
+      }
+    }
+    out += fmt::format("\n[[events]]\nname = \"{}\"\nat = {}\nremove_walls = [", e.name, num(at));
+    for (size_t k = 0; k < e.remove_walls.size(); ++k) out += fmt::format("{}\"{}\"", k ? ", " : "", e.remove_walls[k]);
+    out += "]\n";
+  }
+  return out;
+}
+
+std::string region_text(const config::CaseSpec& cs, const Region& r, bool finest) {
+  std::string out = "\n[[coupling.regions]]\n";
+  for (const auto& w : r.why) out += "# " + w + "\n";
+  out += fmt::format("coarse = \"{}\"\nfine = \"{}\"\nmin = {}\nmax = {}\ncell_size = {}\n", r.coarse, r.fine,
+                     vec(r.box.lo), vec(r.box.hi), num(r.cell));
+  const Outlet& o = *r.outlets.front();
+  if (downward(o, cs.gravity))
+    out += fmt::format("velocity_only_below = {}   # below the outlet: pure velocity coupling\n", num(o.center.z));
+  else if (finest)
+    out += fmt::format("inside = {}   # a point inside the vessel, along the outlet's inward normal\n",
+                       vec(o.center - 0.5 * o.size() * o.normal));
+  return out;
+}
+
+// The case as the variant's `base`: relative to the variant's folder when that stays inside the case's tree.
+std::string base_path(const std::string& case_file, const fs::path& out) {
+  const fs::path abs = fs::absolute(case_file).lexically_normal();
+  const fs::path rel = abs.lexically_relative(fs::absolute(out).parent_path().lexically_normal());
+  return !rel.empty() && *rel.begin() != ".." ? rel.string() : abs.string();
+}
+
+struct Plan {
+  std::vector<Level> levels;
+  std::vector<Region> regions;  // outer ones first
+  std::vector<std::string> why;
+  std::string text;
+};
+
+Plan make_plan(const config::CaseSpec& cs, const config::OutletScan& scan, const PlanOptions& o, const fs::path& out) {
+  Plan p;
+  const double depth = o.error < 3.0 ? kPlanDepthOnePercent : kPlanDepth;
+  auto inner = fine_regions(cs, scan.outlets, 2.0 * cs.levels.front().alpha, depth);
+  hold_probes(cs, inner);
+  p.levels = plan_levels(cs, o.levels, inner, p.regions);
+  p.regions.insert(p.regions.end(), inner.begin(), inner.end());
+  std::string text = fmt::format(
+      "# Written by `mlcg plan` from {} (--error {:g}, --levels {}): the scene's {} outlet(s) found in its walls, one "
+      "fine region per outlet (one around outlets whose regions would touch), sized by the region rules' evidence.\n"
+      "base = \"{}\"\ntitle = \"{} (MLCG as planned: {} levels)\"\n",
+      cs.path, o.error, o.levels, scan.outlets.size(), base_path(cs.path, out), cs.title, o.levels);
+  for (const auto& l : p.levels)
+    text += fmt::format("\n[[levels]]\nname = \"{}\"\nalpha = {}\ndt = {}\n{}", l.name, num(l.alpha), num(l.dt),
+                        l.ranks > 1 ? fmt::format("ranks = {}\n", l.ranks) : "");
+  text += events_text(cs, o.reference_run, p.why);
+  text += "\n[coupling]                 # interval automatic: the smallest multiple of every dt >= 15 finest steps\n";
+  for (const auto& r : p.regions) text += region_text(cs, r, r.fine.rfind("fine", 0) == 0);
+  p.text = text;
+  return p;
+}
+
+// The variant as `mlcg run` would check it: the region rules, the coupler's grids, every level's guard.
+config::CaseSpec check_plan(const Plan& p, const fs::path& out) {
+  const config::CaseSpec v = config::parse_case(p.text, out.string());
+  const auto rules = config::check_region_rules(v, find_outlets(v));
+  for (const auto& w : rules.warnings) std::printf("  warning: %s\n", w.c_str());
+  if (!rules.errors.empty()) {
+    std::string all;
+    for (const auto& e : rules.errors) all += "\n  " + e;
+    throw PlanError("the planned hierarchy does not pass the region rules:" + all);
+  }
+  coupling::coupling_from_case(v);
+  for (const auto& l : v.levels) preview_level(v, l);
+  return v;
+}
+
+void print_plan(const config::CaseSpec& cs, const config::OutletScan& scan, const Plan& p) {
+  std::printf("mlcg plan: %s, %zu outlet(s)\n", cs.path.c_str(), scan.outlets.size());
+  for (const auto& o : scan.outlets) std::printf("  %s\n", config::outlet_text(o).c_str());
+  for (const auto& l : p.levels) std::printf("level '%s': alpha %g, dt %g s\n", l.name.c_str(), l.alpha, l.dt);
+  for (size_t k = 0; k < p.regions.size(); ++k) {
+    const auto& r = p.regions[k];
+    std::printf("region %zu ('%s' -> '%s'): min %s, max %s, cells of %g m\n", k, r.coarse.c_str(), r.fine.c_str(),
+                vec(r.box.lo).c_str(), vec(r.box.hi).c_str(), r.cell);
+    for (const auto& w : r.why) std::printf("  %s\n", w.c_str());
+  }
+  for (const auto& w : p.why) std::printf("%s\n", w.c_str());
+}
+
+}  // namespace
+
+int plan_case(const PlanOptions& o) {
+  try {
+    const fs::path out(o.out);
+    if (fs::exists(out)) throw PlanError(o.out + " exists; give another --out (nothing is overwritten)");
+    if (o.levels != 2 && o.levels != 3) throw PlanError(fmt::format("--levels {}: allowed 2 or 3", o.levels));
+    if (o.error < 1.0)
+      throw PlanError(fmt::format("--error {:g}: no planned hierarchy was measured closer than about 1 % (silo_small "
+                                  "with its region 2 D0 deep: +0.4 %); allowed >= 1", o.error));
+    const config::CaseSpec cs = config::load_case(o.case_file);
+    if (cs.levels.size() != 1)
+      throw PlanError(o.case_file + " has " + std::to_string(cs.levels.size()) +
+                      " levels; mlcg plan takes a single-level case (the fully resolved reference)");
+    const auto scan = find_outlets(cs);
+    if (scan.outlets.empty())
+      throw PlanError(o.case_file + ": no outlet found in its walls; give [orifice] or [[orifices]] (cases/README.md)");
+    const Plan p = make_plan(cs, scan, o, out);
+    print_plan(cs, scan, p);
+    const config::CaseSpec v = check_plan(p, out);
+    const double end = estimated_end(v);
+    if (end > 0.0) {
+      const double ref = particle_steps_to(cs, end), mlcg = particle_steps_to(v, end);
+      std::printf("expected cost: %.3g particle-steps against the reference's %.3g to t = %.3g s: %.2fx %s (the "
+                  "estimate of `mlcg check`)\n", mlcg, ref, end, ref >= mlcg ? ref / mlcg : mlcg / ref,
+                  ref >= mlcg ? "fewer" : "more");
+      if (ref < 2.0 * mlcg)
+        std::printf("note: less than 2x fewer: the fine regions hold much of the scene; on a vessel this small MLCG buys "
+                    "accuracy, not speed\n");
+    }
+    if (out.has_parent_path()) fs::create_directories(out.parent_path());
+    io::write_file_atomic(out, p.text);
+    std::printf("wrote %s; run it with `mlcg run %s`, compare it with `mlcg study`\n", o.out.c_str(), o.out.c_str());
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+}
+
+}  // namespace mlcg::launcher

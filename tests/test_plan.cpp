@@ -1,0 +1,160 @@
+// `mlcg plan` (launcher/plan.hpp) on a scene with two outlets far apart in an STL floor: it writes a variant
+// with one fine region (and fine level) per outlet that passes the region rules, each probe held by its
+// outlet's fine level; it
+// never overwrites a file; and on silo_small it plans the region the shipped hierarchy has.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "config/case_parser.hpp"
+#include "config/region_rules.hpp"
+#include "config/regions.hpp"
+#include "case_parser_support.hpp"
+#include "launch_support.hpp"
+#include "scene/outlets.hpp"
+#include "stl_support.hpp"
+
+namespace {
+
+using namespace launch_support;
+using mlcg::Vec3;
+
+// A floor 0.3 x 0.1 m of 5 mm cells with a 3 cm square hole at x = -0.08 and a 2 cm one at x = 0.08, each
+// under a lid one event removes, plane walls around, a probe 1 cm under each hole.
+fs::path two_outlet_case(const fs::path& dir) {
+  fs::create_directories(dir);
+  std::vector<mlcg::test::Quad> q;
+  mlcg::test::plate(q, {-0.15, -0.05, 0.0}, {1, 0, 0}, {0, 1, 0}, 60, 20, 0.005, [](int i, int j) {
+    return mlcg::test::in_box(i, j, 11, 17, 7, 13) || mlcg::test::in_box(i, j, 44, 48, 8, 12);
+  });
+  mlcg::test::write_stl(dir / "floor.stl", q);
+  std::ofstream f(dir / "reference.toml");
+  f << "title = \"two outlets in a flat STL floor\"\n" << case_parser_test::one_material("0.5", "0.3") << R"(
+[[levels]]
+name = "level0"
+dt = 1e-5
+
+[domain]
+min = [-0.16, -0.07, -0.06]
+max = [0.16, 0.07, 0.12]
+)";
+  for (const char* w : {"x_lo", "x_hi", "y_lo", "y_hi"}) {
+    const std::string n(w);
+    const bool x = n[0] == 'x', lo = n.substr(2) == "lo";
+    const double at = (lo ? -1.0 : 1.0) * (x ? 0.15 : 0.05);
+    f << "\n[[walls]]\nname = \"" << n << "\"\ntype = \"plane\"\nmaterial = \"m\"\npoint = [" << (x ? at : 0.0) << ", "
+      << (x ? 0.0 : at) << ", 0.0]\nnormal = [" << (x ? (lo ? 1 : -1) : 0) << ", " << (x ? 0 : (lo ? 1 : -1))
+      << ", 0]\n";
+  }
+  f << R"(
+[[walls]]
+name = "floor"
+type = "mesh"
+material = "m"
+file = "floor.stl"
+
+[[walls]]
+name = "lid_a"
+type = "disk"
+material = "m"
+center = [-0.08, 0.0, -0.001]
+radius = 0.025
+
+[[walls]]
+name = "lid_b"
+type = "disk"
+material = "m"
+center = [0.08, 0.0, -0.001]
+radius = 0.018
+
+[[insertion]]
+name = "fill"
+material = "m"
+region = { type = "box", min = [-0.14, -0.04, 0.005], max = [0.14, 0.04, 0.06] }
+radius = 1e-3
+count = 2000
+
+[[events]]
+name = "open"
+at = 0.1
+remove_walls = ["lid_a", "lid_b"]
+
+[[probes]]
+name = "a"
+point = [-0.08, 0.0, -0.01]
+radius = 0.03
+
+[[probes]]
+name = "b"
+point = [0.08, 0.0, -0.01]
+radius = 0.02
+
+[time]
+end = 0.2
+)";
+  return dir / "reference.toml";
+}
+
+TEST(Plan, TwoOutletsFarApartGetOneFineRegionEachThatPassesTheRules) {
+  const fs::path dir = fresh_temp_path("plan_two");
+  const fs::path ref = two_outlet_case(dir), out = dir / "mlcg.toml";
+  const std::string cmd = kBin + "/mlcg plan " + ref.string() + " --out " + out.string();
+  ASSERT_EQ(run(cmd + " > " + dir.string() + "/plan.out 2>&1"), 0) << slurp(dir / "plan.out");
+  const std::string said = slurp(dir / "plan.out");
+  EXPECT_NE(said.find("expected cost:"), std::string::npos) << said;
+  const auto v = mlcg::config::load_case(out.string());
+  EXPECT_EQ(v.bases.size(), 1u);
+  ASSERT_EQ(v.levels.size(), 3u);  // one coarse level for the scene, a fine level per region
+  EXPECT_EQ(v.levels[0].alpha, 2.0);
+  EXPECT_EQ(v.levels[1].alpha, 1.0);
+  EXPECT_EQ(v.levels[2].alpha, 1.0);
+  EXPECT_DOUBLE_EQ(v.levels[0].dt, 2e-5);  // dt scales with alpha
+  ASSERT_TRUE(v.coupling);
+  ASSERT_EQ(v.coupling->regions.size(), 2u) << slurp(out);
+  const auto outlets = mlcg::find_outlets(v).outlets;
+  ASSERT_EQ(outlets.size(), 2u);
+  for (size_t r = 0; r < 2; ++r) {  // each region holds its own outlet and not the other
+    const auto box = mlcg::config::region_box(v.coupling->regions[r]);
+    EXPECT_TRUE(box.contains(outlets[r].center)) << "region " << r;
+    EXPECT_FALSE(box.contains(outlets[1 - r].center)) << "region " << r;
+    // at least the planned 1.5 D0 above its outlet
+    EXPECT_GE(box.hi.z - outlets[r].center.z, 1.5 * outlets[r].size() - 1e-9) << "region " << r;
+  }
+  const auto rules = mlcg::config::check_region_rules(v, mlcg::find_outlets(v));
+  EXPECT_TRUE(rules.errors.empty()) << rules.errors.front();
+  EXPECT_EQ(v.levels[mlcg::config::resolving_level(v, v.probes[0].point)].name, "fine0");
+  EXPECT_EQ(v.levels[mlcg::config::resolving_level(v, v.probes[1].point)].name, "fine1");
+  // never over a file
+  const std::string before = slurp(out);
+  EXPECT_EQ(run(cmd + " > " + dir.string() + "/again.out 2>&1"), 2);
+  EXPECT_NE(slurp(dir / "again.out").find("exists; give another --out (nothing is overwritten)"), std::string::npos);
+  EXPECT_EQ(slurp(out), before);
+  fs::remove_all(dir);
+}
+
+TEST(Plan, OnSiloSmallItPlansTheShippedRegion) {
+  const fs::path dir = fresh_temp_path("plan_silo");
+  fs::create_directories(dir);
+  const fs::path out = dir / "planned.toml";
+  ASSERT_EQ(run(kBin + "/mlcg plan " + kSrc + "/cases/silo_small/reference.toml --out " + out.string() + " > " +
+                dir.string() + "/plan.out 2>&1"),
+            0)
+      << slurp(dir / "plan.out");
+  const auto planned = mlcg::config::load_case(out.string());
+  const auto shipped = mlcg::config::load_case(kSrc + "/cases/silo_small/mlcg.toml");
+  ASSERT_TRUE(planned.coupling && shipped.coupling);
+  const auto& p = planned.coupling->regions.at(0);
+  const auto& s = shipped.coupling->regions.at(0);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(p.min[k], s.min[k], 1e-12) << k;
+    EXPECT_NEAR(p.max[k], s.max[k], 1e-12) << k;
+  }
+  EXPECT_DOUBLE_EQ(p.cell_size, s.cell_size);
+  EXPECT_DOUBLE_EQ(p.velocity_only_below, s.velocity_only_below);
+  EXPECT_EQ(planned.levels.size(), shipped.levels.size());
+  // the condition that opens the lid needs a time in a hierarchy: without a reference run, its latest
+  EXPECT_NE(slurp(dir / "plan.out").find("event 'open' at its latest, t = 1.2 s"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+}  // namespace
