@@ -161,6 +161,7 @@ void Coupler::plan_insertions(Region& r, const bus::GridStats& cs, const bus::Gr
   r.log.inserted_mass = 0.0;
   for (const auto& p : ins) {
     for (double v : {p.x.x, p.x.y, p.x.z, p.r, p.v.x, p.v.y, p.v.z}) fine.add_insert(v);
+    fine.add_insert_face(p.face);
     r.log.inserted_mass += r.planner.mass_of(p.r);
   }
 }

@@ -1,11 +1,13 @@
 // cases/README.md and the parser agree on the keys (issue 15): every key a table of a case or a study
 // file allows (config/case_keys.hpp, the lists the reader's unknown-key check uses) appears in the key
-// tables of that table's section of the document, and every key those tables list is allowed; and each
-// key row's type, default and allowed cells are the text of the key's declaration (config/case_schema*.hpp),
-// from which the reader takes its default, choices and bounds.
+// tables of that table's section of the document, and every key those tables list is allowed; each key
+// row's type and default cells are the text of the key's declaration (config/case_schema*.hpp), from which the
+// reader takes its default; and its allowed cell states the bounds the reader enforces (the declaration's
+// Bounds, read back from the cell as numbers) and, for a string key, exactly the choices the reader accepts.
 #include <gtest/gtest.h>
 
 #include <map>
+#include <optional>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -212,6 +214,62 @@ std::string normalised(std::string_view text) {
   return std::regex_replace(std::string(text), std::regex(R"(\s+)"), " ");
 }
 
+// The bounds an allowed cell states at its start ("> 0", "number ≥ 1", "≤ 5", "[0, 1]", "(0, 1]", "0 to 100",
+// "1..20", the rest of the cell after them free); nullopt when it states none.
+std::optional<schema::Bounds> stated_bounds(const std::string& cell) {
+  static const std::string num = R"((-?(?:[0-9]*\.)?[0-9]+(?:e[-+]?[0-9]+)?|inf))";
+  static const std::regex one("^(?:number )?(>|≥|<|≤) ?" + num + R"((?:$|[;,. ]))"),
+      interval(R"(^([\[(]))" + num + ", ?" + num + R"(([\])]))"), range("^" + num + R"((?: to |\.\.))" + num + R"((?:$|[;,. ]))");
+  std::smatch m;
+  schema::Bounds b;
+  if (std::regex_search(cell, m, one)) {
+    const double v = std::stod(m[2]);
+    const std::string op = m[1];
+    if (op == ">" || op == "≥") b = {v, schema::kInf, op == ">", true};
+    else b = {-schema::kInf, v, true, op == "<"};
+  } else if (std::regex_search(cell, m, interval)) {
+    b = {std::stod(m[2]), std::stod(m[3]), m[1] == "(", m[4] == ")"};
+  } else if (std::regex_search(cell, m, range)) {
+    b = schema::closed(std::stod(m[1]), std::stod(m[2]));
+  } else {
+    return std::nullopt;
+  }
+  return b;
+}
+
+// The string choices an allowed cell lists: every `"word"`.
+std::set<std::string> stated_choices(const std::string& cell) {
+  static const std::regex quoted(R"re(`"([^"`]*)"`)re");
+  std::set<std::string> out;
+  for (std::sregex_iterator it(cell.begin(), cell.end(), quoted), end; it != end; ++it) out.insert((*it)[1]);
+  return out;
+}
+
+std::string text_of(const schema::Bounds& b) {
+  if (b.lo == -schema::kInf && b.hi == schema::kInf) return "none";
+  return b.text();
+}
+
+bool same(const schema::Bounds& a, const schema::Bounds& b) {
+  return a.lo == b.lo && a.hi == b.hi && (a.lo_open == b.lo_open || a.lo == -schema::kInf) &&
+         (a.hi_open == b.hi_open || a.hi == schema::kInf);
+}
+
+// The allowed cell of key `k` against what the reader enforces for it: its bounds (none stated for a key
+// without), and for a string key with choices those choices.
+void expect_allowed_is_enforced(const std::string& cell, const schema::KeySpec& k, const std::string& where) {
+  const auto stated = stated_bounds(cell);
+  const schema::Bounds none{};
+  EXPECT_TRUE(same(stated.value_or(none), k.bounds))
+      << where << ": `" << k.name << "` allowed \"" << cell << "\" states the bounds "
+      << (stated ? text_of(*stated) : "none") << ", the reader enforces " << text_of(k.bounds);
+  const auto choices = schema::choices(k);
+  if (!choices.empty() && k.type.find("string") != std::string_view::npos) {
+    EXPECT_EQ(stated_choices(cell), std::set<std::string>(choices.begin(), choices.end()))
+        << where << ": `" << k.name << "` allowed \"" << cell << "\" lists other choices than the reader accepts";
+  }
+}
+
 TEST(CaseKeys, TheDocumentsTypeDefaultAndAllowedCellsAreTheDeclarations) {
   const auto decl = declarations();
   size_t checked = 0;
@@ -229,9 +287,7 @@ TEST(CaseKeys, TheDocumentsTypeDefaultAndAllowedCellsAreTheDeclarations) {
           const auto cell = [&](const char* column) { return normalised(row.count(column) ? row.at(column) : ""); };
           EXPECT_EQ(cell("type"), normalised(k->type)) << where << ": `" << name << "` type";
           EXPECT_EQ(cell("default"), normalised(k->default_text)) << where << ": `" << name << "` default";
-          if (row.count("allowed")) {
-            EXPECT_EQ(cell("allowed"), normalised(k->allowed)) << where << ": `" << name << "` allowed";
-          }
+          if (row.count("allowed")) expect_allowed_is_enforced(cell("allowed"), *k, where);
           ++checked;
         }
       }

@@ -81,6 +81,7 @@ struct LevelResult {
   std::string error;           // set when the level was refused or told to stop
   uint64_t intervals = 0;      // commands received
   size_t inserted = 0;         // particles the coupler asked this level to insert
+  std::vector<std::vector<double>> received;  // per grid and face: the mass of those particles, counted here
   double traction_sum = 0.0;
   uint64_t heartbeats = 0;     // the coupler's, received while waiting for commands
   std::string waiting_for;     // what the last of them said the coupler waited for
@@ -122,6 +123,7 @@ LevelResult scripted_level(const std::string& ep, const CouplerConfig& cfg, size
   for (const auto& g : w.grids()) geo.emplace_back(g);
   std::vector<std::vector<Vec3>> mine(geo.size());  // fine particles per region (this level as fine)
   std::vector<bool> want(geo.size(), true);          // the coupler asked for the slab's particles
+  for (const auto& g : geo) res.received.emplace_back(g.faces(), 0.0);
   for (uint64_t k = 0; k < intervals; ++k) {
     auto c = receive(milliseconds(5000));
     for (; c && c->env.has_heartbeat(); c = receive(milliseconds(5000))) {
@@ -137,8 +139,14 @@ LevelResult scripted_level(const std::string& ep, const CouplerConfig& cfg, size
     for (const auto& gc : cmd.grids()) {
       if (w.grids(static_cast<int>(gc.grid())).fine_level() == me) want[gc.grid()] = gc.want_occupants();
       res.inserted += static_cast<size_t>(gc.insert_size() / 7);
-      for (int i = 0; i + 6 < gc.insert_size(); i += 7)
-        mine[gc.grid()].push_back({gc.insert(i), gc.insert(i + 1), gc.insert(i + 2)});
+      for (int i = 0; i + 6 < gc.insert_size(); i += 7) {
+        const Vec3 x{gc.insert(i), gc.insert(i + 1), gc.insert(i + 2)};
+        mine[gc.grid()].push_back(x);
+        const int f = geo[gc.grid()].face_column(x);  // every face is a top face here
+        const double r = gc.insert(i + 3);
+        if (f >= 0) res.received[gc.grid()][static_cast<size_t>(f)] += 1000.0 * 4.0 / 3.0 * M_PI * r * r * r;
+        else ADD_FAILURE() << "a particle inserted outside every face's column";
+      }
       for (double t : gc.traction()) res.traction_sum += t;
     }
     if (k >= go_silent_after) {
@@ -196,8 +204,9 @@ struct RunResult {
   uint64_t refused = 0;
   std::vector<LevelResult> levels;
   std::string csv;
-  double crossed = 0.0, inserted = 0.0, remainder = 0.0;
+  double inserted = 0.0;
   uint64_t placed = 0;
+  std::vector<std::vector<FaceState>> faces;  // per region: the coupler's ledger at the end
 };
 
 RunResult run_hierarchy(const std::vector<double>& alphas, uint64_t intervals, const fs::path& out,
@@ -228,13 +237,31 @@ RunResult run_hierarchy(const std::vector<double>& alphas, uint64_t intervals, c
   run.refused = service.refused();
   for (auto& t : threads) t.join();
   run.csv = slurp(out / "coupling" / "region0.csv");
+  for (size_t r = 0; r + 1 < alphas.size(); ++r) run.faces.push_back(coupler.planner(r).faces());
   for (const auto& fs : coupler.planner(0).faces()) {
-    run.crossed += fs.crossed;
     run.inserted += fs.inserted;
-    run.remainder += fs.remainder;
     run.placed += fs.placed;
   }
   return run;
+}
+
+// Region r of a run of `intervals` against what its scripted levels sent and received, face by face: the
+// coarse level sent one particle of its alpha per face every 4th interval; the coupler booked exactly that
+// as crossed, booked as inserted exactly what the fine level received there, and kept less than one fine
+// particle's mass of it unplaced.
+void expect_exact_per_face(const RunResult& run, const std::vector<double>& alphas, size_t r, uint64_t intervals) {
+  const double rc = alphas[r] * kR, rf = alphas[r + 1] * kR;
+  const double sent = static_cast<double>((intervals + 3) / 4) * 1000.0 * 4.0 / 3.0 * M_PI * rc * rc * rc;
+  const double m_fine = 1000.0 * 4.0 / 3.0 * M_PI * rf * rf * rf;
+  const auto& received = run.levels[r + 1].received.at(r);
+  ASSERT_EQ(run.faces.at(r).size(), received.size());
+  for (size_t f = 0; f < received.size(); ++f) {
+    const FaceState& s = run.faces[r][f];
+    EXPECT_NEAR(s.crossed, sent, 1e-12 * sent) << "region " << r << " face " << f;
+    EXPECT_NEAR(s.inserted, received[f], 1e-12 * sent) << "region " << r << " face " << f;
+    EXPECT_GE(sent - received[f], -1e-12 * sent) << "region " << r << " face " << f << " received more than sent";
+    EXPECT_LT(sent - received[f], m_fine * (1.0 + 1e-12)) << "region " << r << " face " << f << " kept too much";
+  }
 }
 
 fs::path scratch(const std::string& name) {
@@ -251,10 +278,9 @@ TEST(CouplerService, TwoScriptedLevelsRunToTheEndWithExactMass) {
   EXPECT_EQ(run.levels[0].intervals, 60u);
   EXPECT_EQ(run.levels[1].intervals, 60u);
   EXPECT_TRUE(run.levels[0].error.empty());
-  // 4 faces x 15 coarse particles of 8 fine ones each, minus what is still carried.
-  EXPECT_GT(run.levels[1].inserted, 300u);
+  // 4 faces x 15 coarse particles of 8 fine ones each, less than one fine particle per face still carried.
+  expect_exact_per_face(run, {2.0, 1.0}, 0, 60);
   EXPECT_EQ(run.levels[0].inserted, 0u);
-  EXPECT_NEAR(run.crossed, run.inserted + run.remainder, 1e-12 * run.crossed);
   const double m_fine = 1000.0 * 4.0 / 3.0 * M_PI * kR * kR * kR;
   EXPECT_NEAR(run.inserted, m_fine * static_cast<double>(run.levels[1].inserted), 1e-12 * run.inserted);
   // The list computed after the last interval never ran: the coupler counts only what the level got.
@@ -365,5 +391,6 @@ TEST(CouplerService, ThreeLevelsCoupleThroughTheMiddleOne) {
   EXPECT_EQ(run.levels[0].inserted, 0u);
   EXPECT_GT(run.levels[1].inserted, 0u) << "the middle level is fine in region 0";
   EXPECT_GT(run.levels[2].inserted, 0u) << "and coarse in region 1, whose fine level gets particles";
-  EXPECT_NEAR(run.crossed, run.inserted + run.remainder, 1e-12 * run.crossed);
+  expect_exact_per_face(run, {4.0, 2.0, 1.0}, 0, 40);
+  expect_exact_per_face(run, {4.0, 2.0, 1.0}, 1, 40);
 }

@@ -134,11 +134,13 @@ TEST(RunFolder, AFileGivenAsTheRunFolderIsRefusedWithoutAnAbort) {
 
 // kill -9 leaves the launcher no chance to stop anything: the coupler and the levels must end by themselves
 // within a few seconds, the kernel releases the launcher's lock, and the run resumes from its last
-// consistent checkpoint to completion.
+// consistent checkpoint to the result of an uninterrupted run of the same case, to the last digit (the short
+// quickstart: 0.15 s).
 TEST(LauncherDeath, AKilledLauncherTakesEveryProcessOfItsRunWithIt) {
+  const fs::path cfile = launch_support::short_quickstart(15.0, 1, "kill9");
+  const fs::path ref = run_hierarchy_case(cfile.string(), "kill9_ref");
   const fs::path dir = fresh_temp_path("kill9");
-  const pid_t pid = start_mlcg({"run", kSrc + "/cases/quickstart/mlcg.toml", "--out", dir.string(), "--quiet"},
-                               dir.string() + ".out");
+  const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
   KillOnExit guard{pid};
   ASSERT_TRUE(wait_for_checkpoint(dir, 100, pid)) << slurp(dir.string() + ".out");
   const std::vector<pid_t> children = run_processes(dir, 3);
@@ -162,11 +164,10 @@ TEST(LauncherDeath, AKilledLauncherTakesEveryProcessOfItsRunWithIt) {
   ASSERT_GE(fd, 0) << "no launcher.lock in " << dir;
   EXPECT_EQ(flock(fd, LOCK_EX | LOCK_NB), 0) << "the dead launcher's lock is still held";
   ::close(fd);
-  ASSERT_EQ(run(kBin + "/mlcg resume " + dir.string() + " --quiet >> " + dir.string() + ".out 2>&1"), 0)
-      << slurp(dir.string() + ".out");
-  EXPECT_EQ(read_json(dir / "summary.json")["status"], "completed");
-  fs::remove_all(dir);
-  for (const auto& f : {dir.string() + ".out", dir.string() + ".resume"}) fs::remove(f);
+  launch_support::expect_resume_completes_as(dir, ref);
+  for (const auto& d : {ref, dir}) remove_run(d);
+  fs::remove(dir.string() + ".resume");
+  mlcg::test::remove_case_copy(cfile);
 }
 
 // The test holds the folder's lock as a live launcher does (status.json cannot tell: it is the old run's).

@@ -25,24 +25,27 @@ using namespace mlcg::test;
 
 namespace {
 
+// The rounding of the energy sums, as a share of the energy in motion: the floor of every bound.
+constexpr double kRounding = 1e-9;
+
 // Largest gain / energy in motion per scene (the labels run_bounded and the tests print).
 const std::map<std::string, double> kBound = {
-    {"stability/youngs_1e6.toml", 1e-9},
-    {"stability/youngs_1e9.toml", 1e-9},
-    {"stability/youngs_1e11.toml", 1e-9},
+    {"stability/youngs_1e6.toml", kRounding},
+    {"stability/youngs_1e9.toml", kRounding},
+    {"stability/youngs_1e11.toml", kRounding},
     {"stability/youngs_1e6.toml (e = 1, mu = 0)", 3e-3},   // measured 2.6e-4 up to the guard's stop
     {"stability/youngs_1e9.toml (e = 1, mu = 0)", 8e-4},   // measured 7.7e-5
     {"stability/youngs_1e11.toml (e = 1, mu = 0)", 4e-4},  // measured 3.4e-5
-    {"stability/chute_alpha8.toml", 1e-9},
-    {"stability/chute_alpha16.toml", 1e-9},
-    {"stability/impact_wall_50.toml", 1e-9},
-    {"stability/impact_bed_50.toml", 1e-9},
-    {"stability/polydisperse_10to1.toml", 1e-9},
-    {"stability/overlap_pack.toml", 1e-9},
-    {"stability/on_stl_edge.toml", 1e-9},
-    {"stability/on_stl_vertex.toml", 1e-9},
-    {"stability/dt_guard.toml (min_steps_per_contact 10)", 1e-9},
-    {"stability/dt_guard.toml (min_steps_per_contact 20)", 1e-9},
+    {"stability/chute_alpha8.toml", kRounding},
+    {"stability/chute_alpha16.toml", kRounding},
+    {"stability/impact_wall_50.toml", kRounding},
+    {"stability/impact_bed_50.toml", kRounding},
+    {"stability/polydisperse_10to1.toml", kRounding},
+    {"stability/overlap_pack.toml", kRounding},
+    {"stability/on_stl_edge.toml", kRounding},
+    {"stability/on_stl_vertex.toml", kRounding},
+    {"stability/dt_guard.toml (min_steps_per_contact 10)", kRounding},
+    {"stability/dt_guard.toml (min_steps_per_contact 20)", kRounding},
 };
 
 double bound(const std::string& scene) {
@@ -379,9 +382,10 @@ TEST(EnergyAccount, AgreesWithAnAccountKeptOutsideTheLevelAndClosesOnAConservati
   EXPECT_NEAR(t.inserted, in, 1e-6 * t.in_motion);
   EXPECT_NEAR(t.removed, out, 1e-6 * t.in_motion);
   EXPECT_NEAR(t.end_gain, gain, 1e-6 * t.in_motion);
-  // Conservative: the account closes to the integrator's error.
-  EXPECT_LE(std::fabs(t.end_gain), 1e-3 * t.in_motion);
-  EXPECT_LE(t.max_rise, 1e-3 * t.in_motion);
+  // Conservative: the account closes to rounding (measured 1.2e-10 of the energy in motion at the end); its
+  // largest rise on the way, measured 1.9e-9, is held to about 10x that, as every bound of this suite.
+  EXPECT_LE(std::fabs(t.end_gain), kRounding * t.in_motion);
+  EXPECT_LE(t.max_rise, 2e-8 * t.in_motion);
   std::cout << "[stability] energy account: in " << t.inserted << " J (outside: " << in << "), out " << t.removed
             << " J (" << out << "), end gain " << t.end_gain << " J (" << gain << ") of " << t.in_motion
             << " J in motion, largest rise " << t.max_rise << " J\n";

@@ -20,6 +20,7 @@
 #include "core/time_steps.hpp"
 #include "coupling/client.hpp"
 #include "coupling/grid_link.hpp"
+#include "coupling/insert_log.hpp"
 #include "level/level.hpp"
 #include "level/phase_timer.hpp"
 
@@ -48,6 +49,7 @@ struct Level::Coupled {
   double worst_overlap = 0.0; // largest overlap of an inserted particle / its diameter, on the inserting rank
   double worst_wall_overlap = 0.0;  // the same with the walls
   uint64_t outside_walls = 0;       // inserted particles whose centre lies outside the walls (this rank)
+  coupling::InsertLog inserts;      // inserted.csv (rank 0, a fine level with an output folder)
 };
 
 namespace {
@@ -141,6 +143,9 @@ void Level::connect_coupler() {
     log_->info("coupling grid {}: {} level, {} cells, {} boundary faces at z = {} m", link.index(),
                coupling::to_string(link.role()), geo.cells(), geo.faces(), geo.top());
   }
+  const bool fine = std::any_of(c->grids.begin(), c->grids.end(),
+                                 [](const auto& g) { return g.role() == coupling::Role::Fine; });
+  if (fine && comm_.rank() == 0 && !opt_.out_dir.empty()) c->inserts.open(opt_.out_dir / "inserted.csv", start);
   if (c->grids.empty()) log_->warn("level '{}' takes part in none of the coupler's {} grids", lvl_.name, w.grids_size());
   c->material = cs_.insertions.empty() ? 0 : physics_.mt.index_of(cs_.insertions.front().material);
   c->density = physics_.mt.material(c->material).density;
@@ -187,6 +192,7 @@ void Level::coupling_begin_step() {
       } catch (const std::invalid_argument& e) {
         throw CouplingStop(e.what());
       }
+      if (comm_.rank() == 0) c.inserts.record(c.k, *of[l], list);
       state_.detach_ghosts(stepper_.keep_history);
       const size_t first_new = state_.p.n_local();
       double r_big = 0.0;
@@ -320,6 +326,7 @@ void Level::coupling_end_step() {
   if (c.checkpoint && !opt_.out_dir.empty()) {
     PhaseTimer t(out_.times.output);
     const auto path = c.checkpoint_path.empty() ? opt_.out_dir / "checkpoint.h5" : std::filesystem::path(c.checkpoint_path);
+    c.inserts.flush();  // the rows the checkpoint covers are on disk before it is
     write_checkpoint(path);
     s.set_checkpoint(path.string());
     stepper_.rebuild_pending = true;  // as a restarted run will

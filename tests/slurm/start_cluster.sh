@@ -9,7 +9,9 @@
 # Everything (configuration, keys, state, logs, pid files) lives in DIR; clients
 # use it through SLURM_CONF=DIR/slurm.conf. Stop it with stop_cluster.sh DIR.
 # Exit code 77 with the reason on stderr (and in DIR/skip_reason) when the cluster
-# cannot be started here; the test skips then.
+# cannot be started here (not root, munged refused to start); the test skips then.
+# A program scripts/setup.sh installs that is missing, or setup_hosts.sh failing, is
+# the project's own failure: exit code 1 with the reason, and the test fails.
 # Usage: start_cluster.sh DIR [NODES=2] [CPUS=2]
 set -u
 dir="$1"
@@ -25,11 +27,16 @@ skip() {
   "$here/stop_cluster.sh" "$dir" > /dev/null 2>&1
   exit 77
 }
+fail() {
+  echo "start_cluster.sh: $*" >&2
+  "$here/stop_cluster.sh" "$dir" > /dev/null 2>&1
+  exit 1
+}
 [ "$(id -u)" = 0 ] || skip "needs root (network namespaces, slurmd)"
 for p in munged munge slurmctld slurmd sbatch scontrol sinfo nsenter unshare ip; do
-  command -v "$p" > /dev/null || skip "$p is not installed (scripts/setup.sh installs slurm-wlm, munge, iproute2)"
+  command -v "$p" > /dev/null || fail "$p is not installed: run scripts/setup.sh (it installs slurm-wlm, munge, iproute2)"
 done
-"$netns/setup_hosts.sh" "$nodes" mlcs- 10.78.0 || skip "cannot make the network namespaces (setup_hosts.sh failed)"
+"$netns/setup_hosts.sh" "$nodes" mlcs- 10.78.0 || fail "cannot make the network namespaces: tests/netns/setup_hosts.sh failed (above)"
 
 # munged refuses a socket folder that others cannot traverse, and a key others can read.
 chmod 711 "$dir"

@@ -4,7 +4,8 @@
 // script from the case and sbatch queues it; inside the job mlcg takes the allocation's nodes from Slurm's
 // environment, and Open MPI's mpirun starts the processes on the other nodes through Slurm (srun), no
 // hostfile, no rsh agent. The per-face totals are those of the local run. Skipped (with the reason) unless
-// root with slurm-wlm and munge installed; the daemons are stopped and the namespaces removed in every case.
+// root; fails (not skips) when a program scripts/setup.sh installs is missing or the namespaces cannot be made.
+// The daemons are stopped and the namespaces removed in every case.
 #include <gtest/gtest.h>
 
 #include <signal.h>
