@@ -82,13 +82,17 @@ bool near(const RegionBox& a, const RegionBox& b, double gap) {
   return true;
 }
 
-// A box kept inside the domain, whole cells dropped from the side that reaches out (the parser refuses a region
-// outside the domain).
+// A box kept inside the domain (the parser refuses a region outside it): its low side moved to the domain's,
+// then as many whole cells from there as fit.
 bool clip_to_domain(RegionBox& box, double cell, const config::DomainSpec& d) {
   bool clipped = false;
   for (int k = 0; k < 3; ++k) {
-    while (box.lo[k] < d.min[k] - 1e-12 && box.hi[k] - box.lo[k] > 1.5 * cell) box.lo[k] += cell, clipped = true;
-    while (box.hi[k] > d.max[k] + 1e-12 && box.hi[k] - box.lo[k] > 1.5 * cell) box.hi[k] -= cell, clipped = true;
+    const double lo = std::max(box.lo[k], d.min[k]);
+    int n = static_cast<int>(std::ceil((box.hi[k] - lo) / cell - 1e-9));
+    while (n > 1 && lo + n * cell > d.max[k] + 1e-12) --n;
+    clipped = clipped || lo != box.lo[k] || lo + n * cell != box.hi[k];
+    box.lo[k] = lo;
+    box.hi[k] = lo + n * cell;
   }
   return clipped;
 }
@@ -125,7 +129,7 @@ std::vector<Region> fine_regions(const config::CaseSpec& cs, const std::vector<O
     merge->why.push_back(r.why.front() + "; its region would touch this one's: one region around both");
   }
   for (auto& r : out) {
-    if (clip_to_domain(r.box, h, cs.domain)) r.why.push_back("whole cells dropped where it reached outside [domain]");
+    if (clip_to_domain(r.box, h, cs.domain)) r.why.push_back("kept inside [domain]: its low side at the domain's, whole cells from there");
     r.why.push_back(fmt::format("cells of {:g} m: {:g} coarse diameters ({:g} mm at alpha {:g})", h,
                                 h / (2e3 * largest_radius(cs) * coarse_alpha) * 1e3, 2e3 * largest_radius(cs) * coarse_alpha,
                                 coarse_alpha));
@@ -163,7 +167,7 @@ Region outer_region(const config::CaseSpec& cs, const Region& inner, const Level
   }
   r.why.push_back(fmt::format("around region of level '{}': two {:g} m cells deeper along the outlets' inward "
                               "normal, one wider", inner.fine, h));
-  if (clip_to_domain(r.box, h, cs.domain)) r.why.push_back("whole cells dropped where it reached outside [domain]");
+  if (clip_to_domain(r.box, h, cs.domain)) r.why.push_back("kept inside [domain]: its low side at the domain's, whole cells from there");
   return r;
 }
 
