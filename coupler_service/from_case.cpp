@@ -5,6 +5,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "config/region_rules.hpp"
 #include "scene/materials_from_case.hpp"
 #include "scene/walls_from_case.hpp"
 
@@ -69,7 +70,7 @@ void open_sides(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& inside)
 // Fractions of each active cell's volume and of each boundary face's area that
 // are reachable from `inside` (inside the walls), from n^3 / n^2 sample points.
 void inside_fractions(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& inside) {
-  constexpr int n = 8;
+  constexpr int n = config::kWallSamplesPerCell;
   const bus::CouplingGeometry geo(gr);
   const double h = geo.cell_size(), floor = 1.0 / (n * n * n);
   for (size_t c = 0; c < geo.cells(); ++c) {

@@ -167,6 +167,16 @@ TEST(RegionRules, RefusesACoarseLevelThatCannotPassAnOrificeOutsideTheRegion) {
   EXPECT_NE(r.errors[0].find("extend the region over the orifice at [0, 0, 0]"), std::string::npos);
 }
 
+TEST(RegionRules, WarnsAboutCellsFarLargerThanTheCoarseParticles) {
+  // 1 m cells around a 24 mm funnel outlet: 125 coarse diameters; the coupler's 8 wall samples per edge are
+  // 12.5 cm apart, coarser than the whole funnel
+  const auto r = rules_of(quickstart("cell_size = 0.02\nvelocity_only_below", "cell_size = 1.0\nvelocity_only_below"));
+  EXPECT_TRUE(has(r.warnings, "coupling.regions[0].cell_size: cell_size = 1 m is 125.00 coarse diameters")) << all(r.warnings);
+  EXPECT_TRUE(has(r.warnings, "above the advised 3-10")) << all(r.warnings);
+  EXPECT_TRUE(has(r.warnings, "misses walls closer than 0.125 m")) << all(r.warnings);
+  EXPECT_TRUE(has(r.warnings, "cell_size <= 0.08 m would be within the advised range")) << all(r.warnings);
+}
+
 TEST(RegionRules, EveryRefusalIsReported) {
   const std::string text = quickstart("cell_size = 0.02\nvelocity_only_below", "cell_size = 0.01\nvelocity_only_below");
   const auto r = rules_of(edited(text, "max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.01]"));

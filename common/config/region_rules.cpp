@@ -37,10 +37,20 @@ struct Check {
 
 void check_cells(const Check& c, RegionRuleReport& out) {
   const double ratio = c.r.cell_size / c.d_coarse;
-  if (ratio >= kAdvisedCellDiameters) return;
   const std::string what =
       fmt::format("{}: cell_size = {:g} m is {:.2f} coarse diameters of {}; ", c.at("cell_size"), c.r.cell_size, ratio,
                   c.d_text);
+  if (ratio > kMostCellDiameters) {
+    out.warnings.push_back(what + fmt::format(
+        "above the advised {:g}-{:g}: the transition layer is one cell deep, so the stress the fine level is "
+        "pressed with is averaged over {:.3g} m, and the coupler samples the walls {} times along a cell's edge, "
+        "so it misses walls closer than {:.3g} m (a cell's volume inside the walls is then overestimated); "
+        "cell_size <= {:.3g} m would be within the advised range",
+        kAdvisedCellDiameters, kMostCellDiameters, c.r.cell_size, kWallSamplesPerCell,
+        c.r.cell_size / kWallSamplesPerCell, kMostCellDiameters * c.d_coarse));
+    return;
+  }
+  if (ratio >= kAdvisedCellDiameters) return;
   if (ratio < kMinCellDiameters) {
     out.errors.push_back(what + fmt::format(
         "a cell that small holds fewer than about 9 coarse particles when packed (one particle moves its volume "
@@ -50,9 +60,9 @@ void check_cells(const Check& c, RegionRuleReport& out) {
     return;
   }
   out.warnings.push_back(what + fmt::format(
-      "below the advised {:g}-10 (about 31 coarse particles per packed cell); the cell statistics are noisy, "
+      "below the advised {:g}-{:g} (about 31 coarse particles per packed cell); the cell statistics are noisy, "
       "cell_size >= {:.3g} m would be within the advised range",
-      kAdvisedCellDiameters, kAdvisedCellDiameters * c.d_coarse));
+      kAdvisedCellDiameters, kMostCellDiameters, kAdvisedCellDiameters * c.d_coarse));
 }
 
 // Ratios computed from rounded coordinates (a box of whole cells, a mesh's extents) meet a threshold they

@@ -7,7 +7,7 @@
 //     along its inward normal (for an outlet in a floor: the boundary surface at least 1 D0 above
 //     it; for one in a side wall: 1 D0 into the vessel); a warning below kAdvisedTopAboveOrifice;
 //   - cells must be at least kMinCellDiameters coarse diameters wide (a warning below
-//     kAdvisedCellDiameters);
+//     kAdvisedCellDiameters and above kMostCellDiameters);
 //   - a coarse level whose particles cannot pass an outlet (D0 / d below kJammingRatio) is refused
 //     unless a fine region over that coarse level contains the outlet (a warning then);
 //   - the thresholds were measured on outlets the flow leaves downward (floors, cone bottoms): for an
@@ -53,6 +53,12 @@ inline constexpr double kMinCellDiameters = 2.0;
 // Advised lower end (DESIGN: cells of 3-10 coarse diameters; the paper's 2 cm cells
 // are 3.6 coarse diameters): about 31 particles per packed cell, 3 % each.
 inline constexpr double kAdvisedCellDiameters = 3.0;
+// Advised upper end (DESIGN: 3-10 coarse diameters): above it a warning. The transition layer is one cell
+// deep, so the coarse stress is averaged over a whole cell; and the coupler finds the walls in a cell from
+// kWallSamplesPerCell^3 sample points (coupler_service/from_case.cpp), so a cell much larger than the
+// vessel's features misjudges its inside volume (a 1 m cell around a 4 cm outlet: "1 m^3 inside").
+inline constexpr double kMostCellDiameters = 10.0;
+inline constexpr int kWallSamplesPerCell = 8;
 // Spheres through a circular orifice stop jamming once D0 / d exceeds about 5: the
 // mean avalanche size diverges at D0 / d = 4.94 (Zuriguel, Garcimartin, Maza, Pugnaloni,
 // Pastor, Phys. Rev. E 71, 051303, 2005).
