@@ -19,6 +19,8 @@
 #include <sstream>
 #include <thread>
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -54,15 +56,47 @@ struct Options {
   bool rebuild_bed = false;
 };
 
-std::string machine_line() {
-  std::string model = "?";
+// One /proc/cpuinfo field of the first processor ("?" when absent).
+std::string cpuinfo_field(const std::string& key) {
   std::ifstream cpu("/proc/cpuinfo");
   for (std::string l; std::getline(cpu, l);)
-    if (l.rfind("model name", 0) == 0) {
-      model = l.substr(l.find(':') + 2);
-      break;
-    }
-  return fmt::format("{}, {} cores", model, std::thread::hardware_concurrency());
+    if (l.rfind(key, 0) == 0 && l.find(':') != std::string::npos && l.substr(0, l.find(':')).find_last_not_of(" \t") + 1 == key.size())
+      return l.substr(l.find(':') + 2);
+  return "?";
+}
+
+std::string cache_kib(int name) {
+  const long b = sysconf(name);
+  return b > 0 ? fmt::format("{} KiB", b / 1024) : "?";
+}
+
+// The SIMD extensions this binary was built for (the project's targets share the flags, -march=native).
+std::string simd_built() {
+  std::string s;
+  auto add = [&](bool on, const char* what) { s += on ? (s.empty() ? "" : ", ") + std::string(what) : ""; };
+#ifdef __AVX512F__
+  add(true, "AVX-512F");
+#endif
+#ifdef __AVX512VL__
+  add(true, "AVX-512VL");
+#endif
+#ifdef __AVX2__
+  add(true, "AVX2");
+#endif
+#ifdef __FMA__
+  add(true, "FMA");
+#endif
+  return s.empty() ? "SSE2 only" : s;
+}
+
+// The host's signature beside every figure: the same model name covers CPUs of different speed (issue 37:
+// two "Intel(R) Xeon(R) Processor" hosts 17 % apart), so family, model, stepping, caches and the build.
+std::string machine_line() {
+  return fmt::format("{} ({} family {} model {} stepping {}), {} cores; L1d {}, L2 {}, L3 {}; built for {} by GCC {}",
+                     cpuinfo_field("model name"), cpuinfo_field("vendor_id"), cpuinfo_field("cpu family"),
+                     cpuinfo_field("model"), cpuinfo_field("stepping"), std::thread::hardware_concurrency(),
+                     cache_kib(_SC_LEVEL1_DCACHE_SIZE), cache_kib(_SC_LEVEL2_CACHE_SIZE), cache_kib(_SC_LEVEL3_CACHE_SIZE),
+                     simd_built(), __VERSION__);
 }
 
 void add_options(CLI::App& app, Options& o) {
