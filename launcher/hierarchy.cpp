@@ -344,6 +344,12 @@ int resume_hierarchy(const std::string& run_folder, bool quiet, bool previous) {
   try {
     const RunInfo info = read_run_info(run_dir);
     const RunLock lock(run_dir);  // refuses while another launcher runs a hierarchy here
+    // A completed run's results are final: resuming it would rerun its last interval and report that tail's
+    // rates (a 0.1 s tail over the whole run's work gave "overhead 252 %").
+    if (read_json(run_dir / "summary.json").value("status", "") == "completed")
+      throw std::runtime_error(run_dir.string() + " completed (its summary.json says so): there is nothing to resume, "
+                               "and its results stay as they are; to run the case again: `mlcg run " +
+                               info.case_file + " --out NEW_FOLDER`");
     auto from = read_manifest(run_dir);
     if (!from)
       throw std::runtime_error(run_dir.string() + " has no consistent checkpoint (checkpoints/manifest.json); start "

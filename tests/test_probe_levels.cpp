@@ -1,7 +1,8 @@
 // Each probe of a hierarchy is read from the finest level whose region holds it (config/regions.hpp):
 // a fine level removes its particles where they leave its region, so it cannot see a probe outside.
 // The quickstart hierarchy with a second probe above the fine region: the summary, the closing lines
-// and the warning before step 1 name the level, and the values are that level's own measurement.
+// and the warning before step 1 name the level, and the values are that level's own measurement. A
+// completed run is final: `mlcg resume` refuses it.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -62,6 +63,12 @@ window_relative_to = "open"
   // while the coarse level's bed flows through it for the whole window
   EXPECT_EQ(fine[1]["total_mass_kg"].get<double>(), 0.0);
   EXPECT_GT(coarse[1]["mean_kg_per_s"].get<double>(), 0.5 * fine[0]["mean_kg_per_s"].get<double>());
+  // a completed run is final: `mlcg resume` refuses it and leaves its summary as it was
+  const std::string before = slurp(dir_run / "summary.json");
+  std::string said;
+  EXPECT_EQ(run(kBin + "/mlcg resume " + dir_run.string() + " --quiet", said), 2) << said;
+  EXPECT_NE(said.find("completed (its summary.json says so): there is nothing to resume"), std::string::npos) << said;
+  EXPECT_EQ(slurp(dir_run / "summary.json"), before);
   remove_run(dir_run);
   fs::remove(variant);
 }
