@@ -51,10 +51,6 @@ double clean(double x) { return std::round(x * 1e9) / 1e9 + 0.0; }
 std::string num(double x) { return fmt::format("{:.6g}", clean(x)); }
 std::string vec(const Vec3& v) { return fmt::format("[{}, {}, {}]", num(v.x), num(v.y), num(v.z)); }
 
-bool downward(const Outlet& o, const Vec3& g) {
-  return norm(g) > 0.0 && dot(o.normal, g / norm(g)) >= config::kMeasuredTiltCos;
-}
-
 // The box around an outlet in its own frame: `depth` along the inward normal, `beyond` past the outlet,
 // `half` across it; its axis-aligned hull snapped outward to whole cells counted from the outlet's centre.
 RegionBox outlet_box(const Outlet& o, double depth, double beyond, double half, double cell) {
@@ -97,16 +93,9 @@ bool clip_to_domain(RegionBox& box, double cell, const config::DomainSpec& d) {
   return clipped;
 }
 
-double largest_radius(const config::CaseSpec& cs) {
-  double r = 0.0;
-  for (const auto& in : cs.insertions) r = std::max(r, in.radius.largest());
-  for (const auto& p : cs.particles) r = std::max(r, p.radius);
-  return r;
-}
-
 // Cells of kPlanCellDiameters coarse diameters, to the millimetre.
 double cell_for(const config::CaseSpec& cs, double coarse_alpha) {
-  return std::max(0.001, std::round(kPlanCellDiameters * 2.0 * largest_radius(cs) * coarse_alpha * 1e3) / 1e3);
+  return std::max(0.001, std::round(kPlanCellDiameters * 2.0 * config::largest_radius(cs) * coarse_alpha * 1e3) / 1e3);
 }
 
 // One region per outlet around the finest level; regions that would touch become one.
@@ -131,7 +120,7 @@ std::vector<Region> fine_regions(const config::CaseSpec& cs, const std::vector<O
   for (auto& r : out) {
     if (clip_to_domain(r.box, h, cs.domain)) r.why.push_back("kept inside [domain]: its low side at the domain's, whole cells from there");
     r.why.push_back(fmt::format("cells of {:g} m: {:g} coarse diameters ({:g} mm at alpha {:g})", h,
-                                h / (2e3 * largest_radius(cs) * coarse_alpha) * 1e3, 2e3 * largest_radius(cs) * coarse_alpha,
+                                h / (2e3 * config::largest_radius(cs) * coarse_alpha) * 1e3, 2e3 * config::largest_radius(cs) * coarse_alpha,
                                 coarse_alpha));
   }
   return out;
@@ -231,7 +220,7 @@ std::string region_text(const config::CaseSpec& cs, const Region& r, bool finest
   out += fmt::format("coarse = \"{}\"\nfine = \"{}\"\nmin = {}\nmax = {}\ncell_size = {}\n", r.coarse, r.fine,
                      vec(r.box.lo), vec(r.box.hi), num(r.cell));
   const Outlet& o = *r.outlets.front();
-  if (downward(o, cs.gravity))
+  if (config::leaves_downward(o, cs.gravity))
     out += fmt::format("velocity_only_below = {}   # below the outlet: pure velocity coupling\n", num(o.center.z));
   else if (finest)
     out += fmt::format("inside = {}   # a point inside the vessel, along the outlet's inward normal\n",

@@ -6,9 +6,13 @@
 
 namespace mlcg::config {
 
-std::string outlet_text(const Outlet& o) {
+std::string vec_text(const Vec3& p) {
   auto c = [](double x) { return std::abs(x) < 1e-12 ? 0.0 : x; };
-  auto v = [&](const Vec3& p) { return fmt::format("[{:.4g}, {:.4g}, {:.4g}]", c(p.x), c(p.y), c(p.z)); };
+  return fmt::format("[{:.4g}, {:.4g}, {:.4g}]", c(p.x), c(p.y), c(p.z));
+}
+
+std::string outlet_text(const Outlet& o) {
+  const auto v = vec_text;
   const std::string size = o.shape == "circle" ? fmt::format("D0 = {:.4g} m", o.width)
                                                : fmt::format("{:.4g} x {:.4g} m (D0 = its width)", o.width, o.length);
   return fmt::format("{}: {} {} at {}, flow leaves along {}, from {}{}", o.name, o.shape, size, v(o.center),

@@ -30,5 +30,7 @@ struct OutletScan {
 // "outlet0: circle D0 = 0.04 m at [0, 0, 0], flow leaves along [0, 0, -1], from lid 'lid' over the bottom of
 // cone 'cone', opens with event 'open' (removes wall 'lid')"
 std::string outlet_text(const Outlet& o);
+// "[0, 0, -1]": a position or direction in messages (4 significant digits, no negative zero).
+std::string vec_text(const Vec3& v);
 
 }  // namespace mlcg::config

@@ -11,13 +11,6 @@
 namespace mlcg::config {
 namespace {
 
-double largest_radius(const CaseSpec& cs) {
-  double r = 0.0;
-  for (const InsertionSpec& in : cs.insertions) r = std::max(r, in.radius.largest());
-  for (const ParticleSpec& p : cs.particles) r = std::max(r, p.radius);
-  return r;
-}
-
 double alpha_of(const CaseSpec& cs, const std::string& level) {
   for (const LevelSpec& l : cs.levels)
     if (l.name == level) return l.alpha;
@@ -68,11 +61,6 @@ void check_cells(const Check& c, RegionRuleReport& out) {
 // Ratios computed from rounded coordinates (a box of whole cells, a mesh's extents) meet a threshold they
 // equal in decimals: a top exactly 1.0 D0 above passes.
 constexpr double kEdge = 1e-9;
-
-bool downward(const Outlet& o, const Vec3& gravity) {
-  const double g = norm(gravity);
-  return g > 0.0 && dot(o.normal, gravity / g) >= kMeasuredTiltCos;
-}
 
 // How far the region's box reaches from the outlet's centre along its inward normal, and the face that
 // limits it (for an outlet in a floor: the box's top, max z).
@@ -231,6 +219,18 @@ void check_probes(const CaseSpec& cs, RegionRuleReport& out) {
 
 }  // namespace
 
+bool leaves_downward(const Outlet& o, const Vec3& gravity) {
+  const double g = norm(gravity);
+  return g > 0.0 && dot(o.normal, gravity / g) >= kMeasuredTiltCos;
+}
+
+double largest_radius(const CaseSpec& cs) {
+  double r = 0.0;
+  for (const InsertionSpec& in : cs.insertions) r = std::max(r, in.radius.largest());
+  for (const ParticleSpec& p : cs.particles) r = std::max(r, p.radius);
+  return r;
+}
+
 RegionRuleReport check_region_rules(const CaseSpec& cs, const OutletScan& scan) {
   RegionRuleReport out;
   if (!cs.coupling) return out;
@@ -257,7 +257,7 @@ RegionRuleReport check_region_rules(const CaseSpec& cs, const OutletScan& scan) 
     check_siblings(c, over_coarse, out);
     const RegionBox box = region_box(r);
     for (const Outlet* o : judged_outlets(box, scan)) {
-      if (downward(*o, cs.gravity))
+      if (leaves_downward(*o, cs.gravity))
         check_top(c, box, *o, over_coarse == 1, out);
       else
         check_depth_tilted(c, box, *o, cs.gravity, out);

@@ -78,4 +78,10 @@ struct RegionRuleReport {
 
 RegionRuleReport check_region_rules(const CaseSpec& cs, const OutletScan& outlets);
 
+// Whether the flow leaves `o` within 10 degrees of gravity (kMeasuredTiltCos): the outlets the rules were
+// measured on. Shared with `mlcg plan`.
+bool leaves_downward(const Outlet& o, const Vec3& gravity);
+// The largest alpha = 1 radius of the case's insertions and [[particles]] (0 without either).
+double largest_radius(const CaseSpec& cs);
+
 }  // namespace mlcg::config

@@ -41,13 +41,6 @@ struct Opening {
   bool gone = false;
 };
 
-Vec3 unit(const Vec3& a) { return a / norm(a); }
-
-std::string vec_text(const Vec3& v) {
-  auto c = [](double x) { return std::abs(x) < 1e-12 ? 0.0 : x; };
-  return fmt::format("[{:.4g}, {:.4g}, {:.4g}]", c(v.x), c(v.y), c(v.z));
-}
-
 // Which event removes each wall ("" = none).
 std::map<std::string, std::string> removing_events(const CaseSpec& cs) {
   std::map<std::string, std::string> out;
@@ -58,7 +51,7 @@ std::map<std::string, std::string> removing_events(const CaseSpec& cs) {
 
 void analytic_openings(const CaseSpec& cs, size_t i, std::vector<Opening>& out) {
   const WallSpec& w = cs.walls[i];
-  const Vec3 a = unit(w.axis);
+  const Vec3 a = normalized(w.axis);
   const std::string kind = w.type == WallType::Cone ? "cone" : "cylinder";
   auto end = [&](double s, double r, int side, const char* which) {
     if (r > 0.0)
@@ -136,12 +129,12 @@ bool covers(const WallSpec& w, const TriangleMesh* mesh, const Opening& o) {
   const double reach = kCoverReach * o.width;
   switch (w.type) {
     case WallType::Disk: {
-      const Vec3 a = unit(w.axis), d = o.center - w.center;
+      const Vec3 a = normalized(w.axis), d = o.center - w.center;
       const double r = norm(d - dot(d, a) * a);
       return parallel(a, o.plane) && std::abs(dot(d, a)) <= reach && r <= w.radius && r >= w.inner_radius;
     }
     case WallType::Plane:
-      return parallel(unit(w.normal), o.plane) && std::abs(dot(o.center - w.point, unit(w.normal))) <= reach;
+      return parallel(normalized(w.normal), o.plane) && std::abs(dot(o.center - w.point, normalized(w.normal))) <= reach;
     case WallType::Mesh:
       return mesh && mesh->any_within(o.center, reach);
     default:
@@ -161,7 +154,7 @@ struct Verdicts {
   void judge(const Opening& o) {
     const Vec3 n = outward(o, fill);
     if (norm(down) > 0.0 && dot(n, down) < kUpward) {
-      scan.notes.push_back(fmt::format("{} faces upward ({}): an inlet or an open top, not an outlet", o.what, vec_text(n)));
+      scan.notes.push_back(fmt::format("{} faces upward ({}): an inlet or an open top, not an outlet", o.what, config::vec_text(n)));
       return;
     }
     Outlet out{"", o.center, n, o.shape, std::min(o.width, o.length), std::max(o.width, o.length), o.what, ""};
@@ -184,7 +177,7 @@ struct Verdicts {
     for (size_t w = 0; w < cs.walls.size(); ++w) {
       const WallSpec& lid = cs.walls[w];
       if (lid.type != WallType::Disk || lid_used[w] || !removed_by.count(lid.name)) continue;
-      const Opening o{lid.center, unit(lid.axis), 2 * lid.radius, 2 * lid.radius, "circle", "", 0, w};
+      const Opening o{lid.center, normalized(lid.axis), 2 * lid.radius, 2 * lid.radius, "circle", "", 0, w};
       scan.outlets.push_back({"", lid.center, outward(o, fill), "circle", 2 * lid.radius, 2 * lid.radius,
                               fmt::format("lid '{}' (no opening under it: its own diameter)", lid.name),
                               fmt::format("event '{}' (removes wall '{}')", removed_by[lid.name], lid.name)});
