@@ -52,7 +52,9 @@ std::string num(double x) { return fmt::format("{:.6g}", clean(x)); }
 std::string vec(const Vec3& v) { return fmt::format("[{}, {}, {}]", num(v.x), num(v.y), num(v.z)); }
 
 // The box around an outlet in its own frame: `depth` along the inward normal, `beyond` past the outlet,
-// `half` across it; its axis-aligned hull snapped outward to whole cells counted from the outlet's centre.
+// `half` across it; its axis-aligned hull snapped outward to whole cells: counted from the outlet's centre along
+// an axis the box is lopsided on (the outlet's plane then lies on a cell face), centred on it along an axis it
+// spans evenly (a 9 cm span takes 5 cells of 2 cm, not 6: neighbouring outlets' regions stay apart).
 RegionBox outlet_box(const Outlet& o, double depth, double beyond, double half, double cell) {
   const Vec3 n = o.normal;
   const Vec3 helper = std::abs(n.x) <= std::abs(n.y) && std::abs(n.x) <= std::abs(n.z) ? Vec3{1, 0, 0}
@@ -64,8 +66,15 @@ RegionBox outlet_box(const Outlet& o, double depth, double beyond, double half, 
     for (double sa : {-half, half})
       for (double sb : {-half, half}) box = box.grown_to(o.center + sn * n + sa * a + sb * b);
   for (int k = 0; k < 3; ++k) {
-    box.lo[k] = o.center[k] - std::ceil((o.center[k] - box.lo[k]) / cell - 1e-9) * cell;
-    box.hi[k] = o.center[k] + std::ceil((box.hi[k] - o.center[k]) / cell - 1e-9) * cell;
+    const double below = o.center[k] - box.lo[k], above = box.hi[k] - o.center[k];
+    if (std::abs(below - above) <= 1e-9 * cell) {
+      const double n = std::ceil((below + above) / cell - 1e-9);
+      box.lo[k] = o.center[k] - 0.5 * n * cell;
+      box.hi[k] = o.center[k] + 0.5 * n * cell;
+      continue;
+    }
+    box.lo[k] = o.center[k] - std::ceil(below / cell - 1e-9) * cell;
+    box.hi[k] = o.center[k] + std::ceil(above / cell - 1e-9) * cell;
   }
   return box;
 }
@@ -86,7 +95,7 @@ bool clip_to_domain(RegionBox& box, double cell, const config::DomainSpec& d) {
     const double lo = std::max(box.lo[k], d.min[k]);
     int n = static_cast<int>(std::ceil((box.hi[k] - lo) / cell - 1e-9));
     while (n > 1 && lo + n * cell > d.max[k] + 1e-12) --n;
-    clipped = clipped || lo != box.lo[k] || lo + n * cell != box.hi[k];
+    clipped = clipped || lo != box.lo[k] || std::abs(lo + n * cell - box.hi[k]) > 1e-9 * cell;
     box.lo[k] = lo;
     box.hi[k] = lo + n * cell;
   }

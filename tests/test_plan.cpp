@@ -1,6 +1,6 @@
 // `mlcg plan` (launcher/plan.hpp) on a scene with two outlets far apart in an STL floor: it writes a variant
-// with one fine region (and fine level) per outlet that passes the region rules, each probe held by its
-// outlet's fine level; it
+// with one fine region (and fine level) per outlet that passes the region rules, no wider across its outlet
+// than whole cells need, each probe held by its outlet's fine level; it
 // never overwrites a file; and on silo_small it plans the region the shipped hierarchy has.
 #include <gtest/gtest.h>
 
@@ -119,6 +119,14 @@ TEST(Plan, TwoOutletsFarApartGetOneFineRegionEachThatPassesTheRules) {
     EXPECT_FALSE(box.contains(outlets[1 - r].center)) << "region " << r;
     // at least the planned 1.5 D0 above its outlet
     EXPECT_GE(box.hi.z - outlets[r].center.z, 1.5 * outlets[r].size() - 1e-9) << "region " << r;
+    // across it: the fewest whole cells that span its half-length + 1 D0 on each side, centred on it
+    const double half = 0.5 * outlets[r].length + outlets[r].size(), cell = v.coupling->regions[r].cell_size;
+    for (int k : {0, 1}) {
+      const double lo = box.lo[k], hi = box.hi[k], c = outlets[r].center[k];
+      EXPECT_GE(hi - lo, 2.0 * half - 1e-9) << "region " << r << " axis " << k;
+      EXPECT_LT(hi - lo, 2.0 * half + cell - 1e-9) << "region " << r << " axis " << k;
+      EXPECT_NEAR(lo + hi, 2.0 * c, 1e-9) << "region " << r << " axis " << k;
+    }
   }
   const auto rules = mlcg::config::check_region_rules(v, mlcg::find_outlets(v));
   EXPECT_TRUE(rules.errors.empty()) << rules.errors.front();
