@@ -1,5 +1,6 @@
 """Flat plates of square cells as ASCII STL, for the outlet scenes' meshes (each scene's make_mesh.py):
-a plate of nu x nv cells of side h from `origin` along u and v, without the cells `hole(i, j)` marks."""
+a plate of nu x nv cells of side h from `origin` along u and v, without the cells `hole(i, j)` marks, and
+planar quads for sloped walls."""
 import os
 
 
@@ -15,6 +16,16 @@ def plate(origin, u, v, nu, nv, h, hole=lambda i, j: False):
             d = [a[k] + h * v[k] for k in range(3)]
             tris += [(a, b, c), (a, c, d)]
     return tris
+
+
+def holes(ranges):
+    """The `hole(i, j)` of plate() for square holes given as cell ranges (i0, i1, j0, j1): [i0, i1) x [j0, j1)."""
+    return lambda i, j: any(i0 <= i < i1 and j0 <= j < j1 for i0, i1, j0, j1 in ranges)
+
+
+def quad(a, b, c, d):
+    """The planar quad a-b-c-d (corners in order round it) as two triangles."""
+    return [(a, b, c), (a, c, d)]
 
 
 def write_stl(path, tris):

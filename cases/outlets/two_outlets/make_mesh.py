@@ -10,17 +10,13 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
-from plates import plate, write_stl  # noqa: E402
+from plates import holes, plate, write_stl  # noqa: E402
 
 # cells i along x from -0.13 (52), j along y from -0.025 (10); the holes as cell ranges [i0, i1) x [j0, j1)
 HOLES = [(9, 15, 2, 8),    # 3 cm square at x = -0.07
          (38, 42, 3, 7)]   # 2 cm square at x = +0.07
 
 
-def in_hole(i, j):
-    return any(i0 <= i < i1 and j0 <= j < j1 for i0, i1, j0, j1 in HOLES)
-
-
 if __name__ == "__main__":
     write_stl(os.path.join(HERE, "meshes", "floor.stl"),
-              plate((-0.13, -0.025, 0.0), (1, 0, 0), (0, 1, 0), 52, 10, 0.005, in_hole))
+              plate((-0.13, -0.025, 0.0), (1, 0, 0), (0, 1, 0), 52, 10, 0.005, holes(HOLES)))
