@@ -15,6 +15,7 @@
 #include "process.hpp"
 #include "run_case.hpp"
 #include "run_folder.hpp"
+#include "scene/beverloo.hpp"
 
 namespace fs = std::filesystem;
 
@@ -155,11 +156,22 @@ std::vector<RegionInfo> print_regions(const config::CaseSpec& cs, const config::
   return out;
 }
 
-// The scene's outlets (found once: scene/outlets.hpp) and the openings that are none, with the reason.
-void print_outlets(const config::OutletScan& scan) {
+// The scene's outlets (found once: scene/outlets.hpp), each with Beverloo's rate as a sanity line, and the
+// openings that are none, with the reason.
+void print_outlets(const config::CaseSpec& cs, const config::OutletScan& scan) {
   std::printf("outlets: %zu %s\n", scan.outlets.size(),
               scan.given ? "given by [orifice] / [[orifices]]" : "found in the walls");
-  for (const auto& o : scan.outlets) std::printf("  %s\n", config::outlet_text(o).c_str());
+  for (const auto& o : scan.outlets) {
+    std::printf("  %s\n", config::outlet_text(o).c_str());
+    if (const auto b = beverloo(cs, o))
+      std::printf("    Beverloo: %.4g kg/s (%s %.3g mm, d = %.3g mm, bulk density %g kg/m^3; a sanity line, not the "
+                  "answer: hoppers discharge faster than the flat-bottomed bins it is for)\n",
+                  b->kg_per_s, o.shape == "slot" ? "slot law, W0 =" : "circle law, D0 =", b->size * 1e3, b->d * 1e3,
+                  b->rho_b);
+    else if (!faces_down(o))
+      std::printf("    Beverloo: no estimate (its law is for outlets in a floor; this one faces %s)\n",
+                  config::vec_text(o.normal).c_str());
+  }
   for (const auto& n : scan.notes) std::printf("  not an outlet: %s\n", n.c_str());
 }
 
@@ -308,7 +320,7 @@ int check_case(const CheckOptions& o) {
                 cs.title.c_str(), cs.levels.size(), cs.coupling ? ", coupled" : ", no coupler needed");
     for (size_t i = 0; i < cs.bases.size(); ++i)  // base = ..., nearest first
       std::printf("  %s %s\n", i == 0 ? "a variant of" : "  itself a variant of", cs.bases[i].c_str());
-    print_outlets(p.outlets);
+    print_outlets(cs, p.outlets);
     const auto regions = print_regions(cs, &p.regions);
     print_probes(cs);
     double fill_alpha = 1.0;

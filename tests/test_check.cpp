@@ -1,5 +1,5 @@
 // `mlcg check CASE` (issue 16): on every shipped case it prints an estimate or refuses with a reason, and
-// creates nothing; a case `mlcg run` refuses it refuses with the same message; its wall-time estimate of
+// creates nothing; every scene with probes lists its outlets (none by [orifice]), Beverloo beside each; a case `mlcg run` refuses it refuses with the same message; its wall-time estimate of
 // a short quickstart run is within a factor of 2 of the run's own wall time.
 #include <gtest/gtest.h>
 
@@ -75,6 +75,7 @@ TEST(Check, EveryShippedCasePrintsAnEstimateAndCreatesNothing) {
     if (e.path().extension() == ".toml" && e.path().filename() != "study.toml") files.push_back(e.path().string());
   std::sort(files.begin(), files.end());
   ASSERT_GE(files.size(), 50u);
+  std::map<std::string, std::string> outputs;
   for (const auto& f : files) {
     std::string out;
     const int rc = check(f, cwd, cache, out);
@@ -90,7 +91,20 @@ TEST(Check, EveryShippedCasePrintsAnEstimateAndCreatesNothing) {
     EXPECT_TRUE(std::isfinite(e.particle_steps) && e.particle_steps > 0.0) << rel << ":\n" << out;
     EXPECT_TRUE(std::isfinite(e.wall_seconds) && e.wall_seconds > 0.0) << rel << ":\n" << out;
     std::printf("[check] %s: %.3g particle-steps, %.3g s\n", rel.c_str(), e.particle_steps, e.wall_seconds);
+    // every scene that measures a discharge names its outlets, none of them by [orifice]
+    if (slurp(f).find("[[probes]]") != std::string::npos && rel.find("collision") == std::string::npos) {
+      EXPECT_EQ(out.find("outlets: 0"), std::string::npos) << rel << ":\n" << out;
+      EXPECT_EQ(("\n" + slurp(f)).find("\n[orifice]"), std::string::npos) << rel;
+    }
+    outputs[rel] = out;
   }
+  // Beverloo beside each floor outlet: silo_small's 4 cm cone bottom as scripts/beverloo.py (python, the
+  // figure in cases/hoppers/README.md) computed it; none for an outlet in a side wall
+  EXPECT_NE(outputs["cases/silo_small/reference.toml"].find("Beverloo: 0.2643 kg/s (circle law, D0 = 40 mm"),
+            std::string::npos);
+  EXPECT_NE(outputs["cases/hoppers/wedge_slot/reference.toml"].find("Beverloo: 0.3273 kg/s (slot law, W0 = 30 mm"),
+            std::string::npos);
+  EXPECT_NE(outputs["cases/outlets/side_outlet/reference.toml"].find("Beverloo: no estimate"), std::string::npos);
   EXPECT_EQ(fingerprint(kSrc + "/cases"), cases_before) << "mlcg check wrote into the case folders";
   EXPECT_TRUE(fs::is_empty(cwd)) << "mlcg check wrote into the working folder";
   EXPECT_TRUE(fs::exists(cache / "mlcg" / "throughput.json")) << "the calibration was not cached";

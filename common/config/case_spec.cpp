@@ -13,6 +13,19 @@ double RadiusSpec::largest() const {
   return value;
 }
 
+double RadiusSpec::mean() const {
+  switch (kind) {
+    case RadiusKind::Constant: return value;
+    case RadiusKind::Uniform: return 0.5 * (min + max);
+    case RadiusKind::Discrete: {
+      double m = 0.0;
+      for (size_t i = 0; i < values.size(); ++i) m += values[i] * fractions[i];
+      return m;
+    }
+  }
+  return value;
+}
+
 double RadiusSpec::smallest() const {
   switch (kind) {
     case RadiusKind::Constant: return value;

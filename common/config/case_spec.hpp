@@ -102,6 +102,7 @@ struct RadiusSpec {                // radius = 1.4e-3  or  radius = { uniform = 
   std::vector<double> values, fractions;   // fractions by number, sum to 1
   double largest() const;
   double smallest() const;
+  double mean() const;                // by number
   double mean_volume_factor() const;  // E[r^3]
   bool operator==(const RadiusSpec&) const = default;
 };

@@ -31,6 +31,9 @@ constexpr double kCoverReach = 0.25;
 constexpr double kSided = 0.3;
 // Facing upward beyond this (cosine with gravity, below -sin 15 degrees): an inlet, not an outlet.
 constexpr double kUpward = -0.26;
+// A rectangle at least this many times as long as wide is a slot (cases/hoppers/wedge_slot: 30 x 45 mm);
+// the tolerance keeps a mesh's rounding from turning it back into a rectangle.
+constexpr double kSlotAspect = 1.5 * (1.0 - 1e-9);
 
 struct Opening {
   Vec3 center, plane;  // plane: unit normal of its plane
@@ -74,7 +77,7 @@ void mesh_openings_of(const TriangleMesh& mesh, const WallSpec& w, size_t i, std
   for (const MeshOpening& m : mesh_openings(mesh)) {
     const int side = m.rise > kSided ? 1 : m.rise < -kSided ? -1 : 0;
     if (side == 0 && m.outward <= 0.0) continue;  // the outer edge of a flat plate: the mesh ends there
-    const std::string shape = m.shape == MeshOpening::Shape::Rectangle && m.length > 1.5 * m.width ? "slot"
+    const std::string shape = m.shape == MeshOpening::Shape::Rectangle && m.length >= kSlotAspect * m.width ? "slot"
                                                                                                       : m.shape_text();
     out.push_back({m.center, m.normal, m.width, m.length, shape,
                    fmt::format("a {} hole ({} edges) in mesh '{}'", shape, m.edges, w.name), side, i});
