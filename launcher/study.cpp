@@ -92,6 +92,32 @@ void make_plots(const fs::path& folder) {
                  py.c_str(), script.c_str(), code < 0 ? "could not be started" : fmt::format("exited with {}", code).c_str());
 }
 
+// Every probe of the reference compared across the variants (the study's own probe included: the per-outlet
+// table). A probe some variant's run lacks, or that the reference never saw flow through, is left out.
+std::vector<std::vector<StudyRow>> every_probe(const StudySpec& s, const std::vector<std::string>& why,
+                                               const std::vector<StudyRow>& rows) {
+  std::vector<std::vector<StudyRow>> out;
+  for (const auto& name : probe_names(rows.front())) {
+    if (name == rows.front().probe) {
+      out.push_back(rows);
+      continue;
+    }
+    try {
+      std::vector<StudyRow> per;
+      for (size_t i = 0; i < s.variants.size(); ++i) {
+        per.push_back(measure_run(s.variants[i], name));
+        per.back().reused = why[i].empty();
+      }
+      per = combine_replicas(std::move(per));
+      compare_with_reference(per);
+      out.push_back(std::move(per));
+    } catch (const StudyError& e) {
+      std::fprintf(stderr, "mlcg study: probe '%s' left out of the per-probe table: %s\n", name.c_str(), e.what());
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 int run_study(const StudyOptions& o) {
@@ -108,6 +134,7 @@ int run_study(const StudyOptions& o) {
   print_plan(s, why);
   if (o.dry_run) return 0;
   std::vector<StudyRow> rows;
+  std::vector<std::vector<StudyRow>> every;
   try {
     fs::create_directories(s.folder);
     for (size_t i = 0; i < s.variants.size(); ++i) {
@@ -132,13 +159,18 @@ int run_study(const StudyOptions& o) {
       rows.back().reused = why[i].empty();
     }
     rows = combine_replicas(std::move(rows));
-    write_study_report(s, rows);
+    compare_with_reference(rows);
+    every = every_probe(s, why, rows);
+    write_study_report(s, rows, every);
   } catch (const StudyError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
   }
   std::printf("\n== study %s ==\n", s.folder.c_str());
   for (const auto& r : rows) fmt::print("{}\n", console_line(r));
+  for (const auto& probe : every)
+    if (every.size() > 1 && probe.front().probe != rows.front().probe)
+      for (const auto& r : probe) fmt::print("probe {}: {}\n", r.probe, console_line(r));
   std::printf("files: %s/{study.csv, study.md, study.json, *.png}\n", s.folder.c_str());
   std::fflush(stdout);
   if (o.plots) make_plots(s.folder);

@@ -236,7 +236,24 @@ std::string probe_from(const StudyRow& r) {
                      r.probe_resolved ? "" : ", a coarse level: no fine region holds the probe");
 }
 
-void write_md(const StudySpec& s, const std::vector<StudyRow>& rows) {
+// Each probe of the reference, every variant: the per-outlet table of a scene with several outlets.
+std::string every_probe_md(const std::vector<std::vector<StudyRow>>& every_probe) {
+  if (every_probe.size() < 2) return "";
+  std::string out = "\n## Every probe\n\nEach probe of the reference in every variant, against the reference's same "
+                    "probe (a hierarchy's probe read from the finest level whose region holds it).\n\n"
+                    "| probe | variant | ⟨ṁ⟩ ± 95 % CI [kg/s] | read from | error ± 95 % CI |\n"
+                    "| --- | --- | --- | --- | --- |\n";
+  for (const auto& rows : every_probe)
+    for (const auto& r : rows)
+      out += fmt::format("| {} | {} | {:.4f} ± {} | {} | {:+.1f} ± {} % |\n", r.probe, r.v->label, r.mdot,
+                         fixed(r.ci95, 4),
+                         r.probe_level.empty() ? "the run" : r.probe_level + (r.probe_resolved ? "" : " (coarse)"),
+                         r.error_pct, fixed(r.error_ci_pct, 1));
+  return out;
+}
+
+void write_md(const StudySpec& s, const std::vector<StudyRow>& rows,
+              const std::vector<std::vector<StudyRow>>& every_probe) {
   const bool swept = std::any_of(rows.begin(), rows.end(), [](const StudyRow& r) { return !r.v->sweep.empty(); });
   std::string out = fmt::format("# {}\n\n", s.title.empty() ? "Error against run time" : s.title);
   out += fmt::format("Study file: `{}`. Reference: `{}`. Discharge: probe `{}` (⟨ṁ⟩ and σ(ṁ) over its window; a "
@@ -261,6 +278,7 @@ void write_md(const StudySpec& s, const std::vector<StudyRow>& rows) {
     for (const auto& q : r.runs)
       out += fmt::format("- `{}`{}: `{}`{}\n", r.v->name, r.replicas > 1 ? fmt::format(" (seed {})", q.seed) : "",
                          q.run.string(), probe_from(r));
+  out += every_probe_md(every_probe);
   io::write_file_atomic(s.folder / "study.md", out);
 }
 
@@ -272,7 +290,21 @@ nlohmann::json runs_json(const StudyRow& r) {
   return a;
 }
 
-void write_json(const StudySpec& s, const std::vector<StudyRow>& rows) {
+nlohmann::json every_probe_json(const std::vector<std::vector<StudyRow>>& every_probe) {
+  auto a = nlohmann::json::array();
+  for (const auto& rows : every_probe) {
+    auto variants = nlohmann::json::array();
+    for (const auto& r : rows)
+      variants.push_back({{"name", r.v->name}, {"level", r.probe_level}, {"resolved", r.probe_resolved},
+                          {"mdot_kg_per_s", r.mdot}, {"ci95_kg_per_s", json_number(r.ci95)},
+                          {"error_pct", r.error_pct}, {"error_ci_pct", json_number(r.error_ci_pct)}});
+    a.push_back({{"probe", rows.front().probe}, {"variants", variants}});
+  }
+  return a;
+}
+
+void write_json(const StudySpec& s, const std::vector<StudyRow>& rows,
+                const std::vector<std::vector<StudyRow>>& every_probe) {
   nlohmann::json j;
   j["title"] = s.title;
   j["reference"] = s.reference;
@@ -300,16 +332,24 @@ void write_json(const StudySpec& s, const std::vector<StudyRow>& rows) {
                              {"cpu_s", r.cpu},
                              {"particle_steps", r.particle_steps}});
   j["pressure"] = pressure_layer(s, rows);
+  j["probes"] = every_probe_json(every_probe);
   io::write_file_atomic(s.folder / "study.json", j.dump(2) + "\n");
 }
 
 }  // namespace
 
-void write_study_report(const StudySpec& s, std::vector<StudyRow>& rows) {
+std::vector<std::string> probe_names(const StudyRow& reference) {
+  std::vector<std::string> out;
+  for (const auto& p : read_json_file(reference.v->run / "summary.json").value("probes", nlohmann::json::array()))
+    out.push_back(p.value("name", ""));
+  return out;
+}
+
+void compare_with_reference(std::vector<StudyRow>& rows) {
   const StudyRow& ref = rows.front();
   if (ref.mdot == 0.0)
-    throw StudyError(fmt::format("{}: the reference '{}' has ⟨ṁ⟩ = 0 in {}: no error can be measured against it",
-                                 ref.v->where, ref.v->name, ref.v->run.string()));
+    throw StudyError(fmt::format("{}: the reference '{}' has ⟨ṁ⟩ = 0 on probe '{}' in {}: no error can be measured "
+                                 "against it", ref.v->where, ref.v->name, ref.probe, ref.v->run.string()));
   auto ratio = [](double a, double b) { return b > 0.0 ? a / b : 0.0; };
   for (auto& r : rows) {
     r.error_pct = 100.0 * (r.mdot - ref.mdot) / ref.mdot;
@@ -321,10 +361,14 @@ void write_study_report(const StudySpec& s, std::vector<StudyRow>& rows) {
     r.speedup_cpu = ratio(ref.cpu, r.cpu);
     r.step_ratio = ratio(ref.particle_steps, r.particle_steps);
   }
+}
+
+void write_study_report(const StudySpec& s, const std::vector<StudyRow>& rows,
+                        const std::vector<std::vector<StudyRow>>& every_probe) {
   fs::create_directories(s.folder);
   write_csv(s, rows);
-  write_md(s, rows);
-  write_json(s, rows);
+  write_md(s, rows, every_probe);
+  write_json(s, rows, every_probe);
 }
 
 }  // namespace mlcg::launcher

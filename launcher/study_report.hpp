@@ -58,9 +58,17 @@ void probe_series_ci(StudyRow& r, const nlohmann::json& probe);
 // replica means, their spread and a t interval with N - 1 degrees of freedom; costs per run (means).
 std::vector<StudyRow> combine_replicas(std::vector<StudyRow> runs);
 
-// Fills the error, its interval and the ratios against rows[0] (the reference) and writes
-// study.csv, study.md and study.json into the study folder.
-void write_study_report(const StudySpec& s, std::vector<StudyRow>& rows);
+// The probes of the reference's run (rows[0]'s), in the order its summary lists them.
+std::vector<std::string> probe_names(const StudyRow& reference);
+
+// Fills the error, its interval and the ratios against rows[0] (the reference).
+void compare_with_reference(std::vector<StudyRow>& rows);
+
+// Writes study.csv, study.md and study.json into the study folder: `rows` (compared with the reference) on the
+// study's probe, and `every_probe` (one row set per probe of the reference, each compared with the reference's
+// same probe) as the per-outlet table of a scene with several outlets.
+void write_study_report(const StudySpec& s, const std::vector<StudyRow>& rows,
+                        const std::vector<std::vector<StudyRow>>& every_probe);
 
 nlohmann::json read_json_file(const std::filesystem::path& p);
 

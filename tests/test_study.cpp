@@ -114,6 +114,10 @@ class Study : public ::testing::Test {
       // case.toml is the scene; cg2.toml and mlcg.toml are variants of it (cases/README.md, "Variants")
       if (f == "case.toml") replace(text, "window = [0.1, 0.5]", "window = [0.05, 0.2]");
       if (f == "case.toml") replace(text, "plus = 0.5 }", "plus = 0.2 }");
+      // a second probe, wider and lower: the per-probe table compares it too
+      if (f == "case.toml")
+        replace(text, "[[grids]]", "[[probes]]\nname = \"wide\"\npoint = [0.0, 0.0, -0.03]\nnormal = [0.0, 0.0, -1.0]\n"
+                                   "radius = 0.05\nwindow = [0.05, 0.2]\nwindow_relative_to = \"open\"\n\n[[grids]]");
       if (f == "mlcg.toml") replace(text, "end = 0.6", "end = 0.5");
       std::ofstream(kDir / "cases" / f) << text;
     }
@@ -231,6 +235,24 @@ void check_rows() {
   const std::string md = slurp(kDir / "main" / "study.md");
   for (const auto& r : rows) EXPECT_NE(md.find(r.at("label")), std::string::npos) << r.at("label");
   check_intervals(rows);
+  // Every probe of the reference, per variant, against the reference's same probe, read from the level each
+  // run's summary names for it
+  const auto every = read_json(kDir / "main" / "study.json")["probes"];
+  ASSERT_EQ(every.size(), 2u);
+  EXPECT_NE(md.find("## Every probe"), std::string::npos);
+  for (size_t p = 0; p < 2; ++p) {
+    EXPECT_EQ(every[p]["probe"], p == 0 ? "outlet" : "wide");
+    const double ref_p = summary(rows[0].at("run"))["probes"][p]["mean_kg_per_s"];
+    ASSERT_EQ(every[p]["variants"].size(), rows.size());
+    for (size_t v = 0; v < rows.size(); ++v) {
+      const auto got = every[p]["variants"][v];
+      const auto want = summary(rows[v].at("run"))["probes"][p];
+      EXPECT_EQ(got["name"], rows[v].at("name"));
+      EXPECT_DOUBLE_EQ(got["mdot_kg_per_s"].get<double>(), want["mean_kg_per_s"].get<double>()) << p << " " << v;
+      EXPECT_NEAR(got["error_pct"].get<double>(), 100.0 * (want["mean_kg_per_s"].get<double>() - ref_p) / ref_p, 1e-9);
+      EXPECT_EQ(got["level"].get<std::string>(), want.value("level", std::string())) << p << " " << v;
+    }
+  }
 }
 
 void check_plots() {
