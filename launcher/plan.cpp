@@ -19,6 +19,7 @@
 #include "level/stability_preview.hpp"
 #include "checkpoints.hpp"
 #include "scene/outlets.hpp"
+#include "scene/vessel.hpp"
 
 namespace fs = std::filesystem;
 
@@ -57,10 +58,8 @@ std::string vec(const Vec3& v) { return fmt::format("[{}, {}, {}]", num(v.x), nu
 // spans evenly (a 9 cm span takes 5 cells of 2 cm, not 6: neighbouring outlets' regions stay apart).
 RegionBox outlet_box(const Outlet& o, double depth, double beyond, double half, double cell) {
   const Vec3 n = o.normal;
-  const Vec3 helper = std::abs(n.x) <= std::abs(n.y) && std::abs(n.x) <= std::abs(n.z) ? Vec3{1, 0, 0}
-                      : std::abs(n.y) <= std::abs(n.z)                             ? Vec3{0, 1, 0}
-                                                                                    : Vec3{0, 0, 1};
-  const Vec3 a = normalized(cross(n, helper)), b = cross(n, a);
+  Vec3 a, b;
+  config::across(o, a, b);
   RegionBox box{o.center, o.center};
   for (double sn : {beyond, -depth})
     for (double sa : {-half, half})
@@ -276,7 +275,7 @@ Plan make_plan(const config::CaseSpec& cs, const config::OutletScan& scan, const
 // The variant as `mlcg run` would check it: the region rules, the coupler's grids, every level's guard.
 config::CaseSpec check_plan(const Plan& p, const fs::path& out) {
   const config::CaseSpec v = config::parse_case(p.text, out.string());
-  const auto rules = config::check_region_rules(v, find_outlets(v));
+  const auto rules = config::check_region_rules(v, find_outlets(v), vessel_crossing(v));
   for (const auto& w : rules.warnings) std::printf("  warning: %s\n", w.c_str());
   if (!rules.errors.empty()) {
     std::string all;

@@ -23,6 +23,7 @@
 #include "process.hpp"
 #include "run_folder.hpp"
 #include "scene/outlets.hpp"
+#include "scene/vessel.hpp"
 
 namespace fs = std::filesystem;
 
@@ -95,7 +96,7 @@ int run_launched(const config::CaseSpec& cs, const std::string& case_file, const
 }  // namespace
 
 config::RegionRuleReport check_regions(const config::CaseSpec& cs, const config::OutletScan& outlets) {
-  auto report = config::check_region_rules(cs, outlets);
+  auto report = config::check_region_rules(cs, outlets, cs.coupling ? vessel_crossing(cs) : config::WallCrossing{});
   if (cs.coupling)
     for (const auto& o : outlets.outlets) std::printf("mlcg: %s\n", config::outlet_text(o).c_str());
   for (const auto& n : report.notes) std::printf("mlcg: %s\n", n.c_str());

@@ -13,6 +13,7 @@
 #include "files.hpp"
 #include "messages.hpp"
 #include "scene/outlets.hpp"
+#include "scene/vessel.hpp"
 #include "scene/walls_from_case.hpp"
 
 namespace {
@@ -45,7 +46,9 @@ std::string quickstart(const std::string& from = "", const std::string& to = "")
   return from.empty() ? text : edited(text, from, to);
 }
 
-RegionRuleReport rules(const CaseSpec& cs) { return check_region_rules(cs, mlcg::find_outlets(cs)); }
+RegionRuleReport rules(const CaseSpec& cs) {
+  return check_region_rules(cs, mlcg::find_outlets(cs), mlcg::vessel_crossing(cs));
+}
 RegionRuleReport rules_of(const std::string& text) { return rules(parse_case(text, kQuickstart)); }
 std::vector<Outlet> outlets_of(const CaseSpec& cs) { return mlcg::find_outlets(cs).outlets; }
 
@@ -74,16 +77,18 @@ TEST(RegionRules, OrificeIsTheHoleOfAFlatFloor) {  // an annulus with an off-cen
   EXPECT_EQ(all[0].from, "lid 'lid' over the hole of disk 'floor'");
 }
 
-TEST(RegionRules, OrificeKeyWinsOverTheLid) {  // the slot under a round lid
-  const auto scan = mlcg::find_outlets(load_case(kSrc + "/cases/hoppers/wedge_slot/mlcg.toml"));
+TEST(RegionRules, OrificeKeyWinsOverTheLid) {  // the slot under a round lid, given by hand
+  const std::string ref = kSrc + "/cases/hoppers/wedge_slot/reference.toml";
+  const auto scan = mlcg::find_outlets(
+      parse_case(slurp(ref) + "\n[orifice]\ncenter = [0.0, 0.0, 0.0]\nwidth = 0.03\nlength = 0.045\n", ref));
   ASSERT_EQ(scan.outlets.size(), 1u);
   EXPECT_TRUE(scan.given);
   EXPECT_DOUBLE_EQ(scan.outlets[0].size(), 0.03);  // the slot's width, not the lid's 6 cm
   EXPECT_NE(scan.outlets[0].from.find("[orifice]"), std::string::npos) << scan.outlets[0].from;
   // the walls say the same: the mesh's slot under the lid
-  EXPECT_TRUE(has(scan.notes, "found in the walls, replaced by the case's [orifice] / [[orifices]]: outlet0: rectangle "
-                              "0.03 x 0.045 m (D0 = its width) at [0, 0, 0], flow leaves along [0, 0, -1], from lid "
-                              "'lid' over a rectangle hole (4 edges) in mesh 'hopper'"))
+  EXPECT_TRUE(has(scan.notes, "found in the walls, replaced by the case's [orifice] / [[orifices]]: outlet0: "
+                              "slot 0.03 x 0.045 m (D0 = its width) at [0, 0, 0], flow leaves along [0, 0, -1], from lid "
+                              "'lid' over a slot hole (4 edges) in mesh 'hopper'"))
       << all(scan.notes);
 }
 
@@ -111,6 +116,30 @@ TEST(RegionRules, NoOrificeSkipsTheOrificeRulesWithANote) {
   EXPECT_TRUE(r.errors.empty()) << all(r.errors);  // a top at the orifice's height is not refused without one
   EXPECT_TRUE(has(r.notes, "no outlet found")) << all(r.notes);
   EXPECT_TRUE(has(r.notes, "give [orifice]"));
+}
+
+// ---- across the outlet ----------------------------------------------------------------
+
+// offcentre_bin: a 3 cm hole at x = 2 cm in the floor of a bin of radius 4.5 cm; its region reaches 0.5 D0
+// past the hole's rim across y (measured -1.9 %), and the bin's wall on +x.
+TEST(RegionRules, ARegionShortOfTheMarginAcrossItsOutletInsideTheVesselIsWarnedOfAndPromisedNothing) {
+  const std::string file = kSrc + "/cases/hoppers/offcentre_bin/mlcg.toml";
+  const auto shipped = rules(load_case(file));
+  EXPECT_FALSE(has(shipped.warnings, "past the rim")) << all(shipped.warnings);
+  EXPECT_TRUE(has(shipped.notes, "expect the discharge through 'outlet0' within about 3 %")) << all(shipped.notes);
+  // 0.17 D0 past the rim toward -y and +y, where the bin goes on to |y| = 4 cm
+  std::string text = edited(slurp(file), "min = [-0.02, -0.03, -0.02]", "min = [-0.02, -0.02, -0.02]");
+  text = edited(text, "max = [0.06, 0.03, 0.04]", "max = [0.06, 0.02, 0.04]");
+  const auto narrow = rules(parse_case(text, file));
+  EXPECT_TRUE(narrow.errors.empty()) << all(narrow.errors);
+  EXPECT_TRUE(has(narrow.warnings, "coupling.regions[0].min: the region reaches 0.17 outlet widths past the rim of "
+                                   "outlet 'outlet0'")) << all(narrow.warnings);
+  EXPECT_TRUE(has(narrow.warnings, "coupling.regions[0].max: the region reaches 0.17 outlet widths past the rim"));
+  EXPECT_TRUE(has(narrow.warnings, "widen the region to hold [0.02, 0.03, 0.015]")) << all(narrow.warnings);
+  EXPECT_FALSE(has(narrow.notes, "expect the discharge")) << all(narrow.notes);
+  // wedge_slot's region stops 0.25 W0 past the slot's ends, where the end walls close the vessel: no warning.
+  const auto wedge = rules(load_case(kSrc + "/cases/hoppers/wedge_slot/mlcg.toml"));
+  EXPECT_FALSE(has(wedge.warnings, "past the rim")) << all(wedge.warnings);
 }
 
 // ---- refusals -----------------------------------------------------------------------

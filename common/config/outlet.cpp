@@ -11,6 +11,15 @@ std::string vec_text(const Vec3& p) {
   return fmt::format("[{:.4g}, {:.4g}, {:.4g}]", c(p.x), c(p.y), c(p.z));
 }
 
+void across(const Outlet& o, Vec3& a, Vec3& b) {
+  const Vec3 n = o.normal;
+  const Vec3 helper = std::abs(n.x) <= std::abs(n.y) && std::abs(n.x) <= std::abs(n.z) ? Vec3{1, 0, 0}
+                      : std::abs(n.y) <= std::abs(n.z)                             ? Vec3{0, 1, 0}
+                                                                                    : Vec3{0, 0, 1};
+  a = normalized(cross(n, helper));
+  b = cross(n, a);
+}
+
 std::string outlet_text(const Outlet& o) {
   const auto v = vec_text;
   const std::string size = o.shape == "circle" ? fmt::format("D0 = {:.4g} m", o.width)

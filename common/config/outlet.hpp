@@ -30,6 +30,10 @@ struct OutletScan {
 // "outlet0: circle D0 = 0.04 m at [0, 0, 0], flow leaves along [0, 0, -1], from lid 'lid' over the bottom of
 // cone 'cone', opens with event 'open' (removes wall 'lid')"
 std::string outlet_text(const Outlet& o);
+// Two unit directions across the outlet (in its plane), perpendicular to each other and to its normal; axis-
+// aligned when the normal is (a floor's outlet: x and y). The region rules and `mlcg plan` measure margins
+// across the outlet along these.
+void across(const Outlet& o, Vec3& a, Vec3& b);
 // "[0, 0, -1]": a position or direction in messages (4 significant digits, no negative zero).
 std::string vec_text(const Vec3& v);
 
