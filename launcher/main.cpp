@@ -11,14 +11,14 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "check.hpp"
-#include "control.hpp"
-#include "hierarchy.hpp"
-#include "plan.hpp"
-#include "run_case.hpp"
-#include "status.hpp"
-#include "study.hpp"
-#include "submit.hpp"
+#include "plan/check.hpp"
+#include "plan/plan.hpp"
+#include "run/control.hpp"
+#include "run/hierarchy.hpp"
+#include "run/run_case.hpp"
+#include "run/status.hpp"
+#include "run/submit.hpp"
+#include "study/study.hpp"
 
 using namespace mlcg;
 

@@ -13,7 +13,7 @@
 #include "config/case_parser.hpp"
 #include "files.hpp"
 #include "shell.hpp"
-#include "hosts.hpp"
+#include "hosts/hosts.hpp"
 
 namespace fs = std::filesystem;
 using mlcg::test::run;

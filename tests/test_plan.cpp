@@ -1,4 +1,4 @@
-// `mlcg plan` (launcher/plan.hpp) on a scene with two outlets far apart in an STL floor: it writes a variant
+// `mlcg plan` (launcher/plan/plan.hpp) on a scene with two outlets far apart in an STL floor: it writes a variant
 // with one fine region (and fine level) per outlet that passes the region rules, no wider across its outlet
 // than whole cells need, each probe held by its outlet's fine level; it
 // never overwrites a file; and on silo_small it plans the region the shipped hierarchy has.

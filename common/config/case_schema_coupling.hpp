@@ -1,6 +1,6 @@
 #pragma once
 // The keys of a multi-level case ([coupling], [[coupling.regions]], [launcher], [[swap]]), of a study
-// file (`mlcg study`, launcher/study_file.cpp) and of a hostfile line (launcher/hosts.cpp)
+// file (`mlcg study`, launcher/study/study_file.cpp) and of a hostfile line (launcher/hosts/hosts.cpp)
 // (case_schema.hpp says what a KeySpec is). The type, default and allowed texts are those of
 // cases/README.md's key tables, verbatim: tests/test_case_keys.cpp fails when they differ.
 #include "config/case_schema.hpp"
@@ -67,7 +67,7 @@ inline constexpr KeySpec kSwap[] = {
     {"binary", "string", "*required*", "a file", "the path of the new solver binary"},
 };
 
-// A study file (`mlcg study`, launcher/study_file.cpp).
+// A study file (`mlcg study`, launcher/study/study_file.cpp).
 inline constexpr KeySpec kStudy[] = {
     {"title", "string", "`\"\"`", "", "the heading of study.md and the error plot"},
     {"folder", "string", "`runs/study-<case dir name>`", "", "the study folder"},
@@ -93,7 +93,7 @@ inline constexpr KeySpec kStudySweep[] = {
     {"label", "string", "`name`", "", "a variant's label is <label> = <value>"},
 };
 
-// A hostfile line's KEY=VALUE entries (and `coupler`), launcher/hosts.cpp.
+// A hostfile line's KEY=VALUE entries (and `coupler`), launcher/hosts/hosts.cpp.
 inline constexpr KeySpec kHostEntry[] = {
     {"slots", "integer", "*required*", "≥ 1", "how many processes the host runs", at_least(1.0)},
     {"address", "string", "the name resolved", "an IPv4 address", "the address the coupler binds on that host"},

@@ -5,7 +5,7 @@
 #include <cstdint>
 
 #include "fuzz_support.hpp"
-#include "hosts.hpp"
+#include "hosts/hosts.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const auto cs = mlcg::fuzz::shipped_case("cases/quickstart/mlcg3.toml");

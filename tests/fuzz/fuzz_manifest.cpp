@@ -9,7 +9,7 @@
 #include <stdexcept>
 
 #include "bus/checkpoint_file.hpp"
-#include "checkpoints.hpp"
+#include "run/checkpoints.hpp"
 #include "fuzz_support.hpp"
 #include "io/atomic_file.hpp"
 #include "io/h5.hpp"

@@ -6,7 +6,7 @@
 #include <filesystem>
 
 #include "fuzz_support.hpp"
-#include "study_file.hpp"
+#include "study/study_file.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,4 +1,4 @@
-#include "throughput.hpp"
+#include "plan/throughput.hpp"
 
 #include <stdlib.h>
 
@@ -13,9 +13,9 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "checkpoints.hpp"
+#include "run/checkpoints.hpp"
 #include "io/atomic_file.hpp"
-#include "process.hpp"
+#include "process/process.hpp"
 
 namespace fs = std::filesystem;
 

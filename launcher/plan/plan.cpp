@@ -1,4 +1,4 @@
-#include "plan.hpp"
+#include "plan/plan.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,14 +10,14 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "check.hpp"
+#include "plan/check.hpp"
 #include "config/case_parser.hpp"
 #include "config/region_rules.hpp"
 #include "config/regions.hpp"
 #include "from_case.hpp"
 #include "io/atomic_file.hpp"
 #include "level/stability_preview.hpp"
-#include "checkpoints.hpp"
+#include "run/checkpoints.hpp"
 #include "scene/outlets.hpp"
 #include "scene/vessel.hpp"
 

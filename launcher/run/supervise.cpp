@@ -1,4 +1,4 @@
-#include "supervise.hpp"
+#include "run/supervise.hpp"
 
 #include <chrono>
 #include <csignal>
@@ -6,7 +6,7 @@
 #include <sys/wait.h>
 #include <thread>
 
-#include "process.hpp"
+#include "process/process.hpp"
 
 namespace mlcg::launcher {
 

@@ -1,4 +1,4 @@
-#include "submit.hpp"
+#include "run/submit.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -15,9 +15,9 @@
 #include <fmt/format.h>
 
 #include "config/case_parser.hpp"
-#include "process.hpp"
-#include "run_case.hpp"
-#include "run_folder.hpp"
+#include "process/process.hpp"
+#include "run/run_case.hpp"
+#include "run/run_folder.hpp"
 
 namespace fs = std::filesystem;
 

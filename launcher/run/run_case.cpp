@@ -1,6 +1,6 @@
 // `mlcg run CASE`: a single-level case starts one dem_level (through mpirun
 // when it has several ranks) and no coupler; a hierarchy goes to run_hierarchy.
-#include "run_case.hpp"
+#include "run/run_case.hpp"
 
 #include <cstdio>
 #include <ctime>
@@ -15,13 +15,13 @@
 
 #include "config/case_parser.hpp"
 #include "config/region_rules.hpp"
-#include "checkpoints.hpp"
-#include "hierarchy.hpp"
-#include "hosts.hpp"
+#include "run/checkpoints.hpp"
+#include "run/hierarchy.hpp"
+#include "hosts/hosts.hpp"
 #include "io/atomic_file.hpp"
 #include "level/stability_preview.hpp"
-#include "process.hpp"
-#include "run_folder.hpp"
+#include "process/process.hpp"
+#include "run/run_folder.hpp"
 #include "scene/outlets.hpp"
 #include "scene/vessel.hpp"
 

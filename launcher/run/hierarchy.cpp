@@ -1,4 +1,4 @@
-#include "hierarchy.hpp"
+#include "run/hierarchy.hpp"
 
 #include <unistd.h>
 
@@ -14,12 +14,12 @@
 #include "bus/case_hash.hpp"
 #include "config/case_parser.hpp"
 #include "config/regions.hpp"
-#include "checkpoints.hpp"
-#include "process.hpp"
-#include "run_folder.hpp"
-#include "status.hpp"
-#include "supervise.hpp"
-#include "swap.hpp"
+#include "run/checkpoints.hpp"
+#include "process/process.hpp"
+#include "run/run_folder.hpp"
+#include "run/status.hpp"
+#include "run/supervise.hpp"
+#include "run/swap.hpp"
 
 namespace fs = std::filesystem;
 
@@ -183,7 +183,7 @@ void name_failure(const fs::path& run_dir, fs::file_time_type start, const std::
 }
 
 // The coupler's and every level's command line; from a consistent checkpoint when `from` is set.
-// Where each runs and its key files come from `pl` (hosts.hpp).
+// Where each runs and its key files come from `pl` (hosts/hosts.hpp).
 std::vector<Member> members_of(const config::CaseSpec& cs, const std::string& case_file, const fs::path& run_dir,
                                const std::string& ep, const std::optional<ResumePoint>& from, const Swapper& swaps,
                                const Placement& pl) {
@@ -252,7 +252,7 @@ void print_end(const fs::path& run_dir, const Outcome& r) {
 int supervise_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const fs::path& run_dir, bool quiet,
                         std::optional<ResumePoint> from, Placement placement) {
   std::string ep = !cs.coupling->endpoint.empty() ? cs.coupling->endpoint : bus_endpoint(run_dir);
-  ep = placement.prepare(cs, run_dir, ep);  // hosts / CURVE (hosts.hpp)
+  ep = placement.prepare(cs, run_dir, ep);  // hosts / CURVE (hosts/hosts.hpp)
   std::printf("mlcg: case %s, %zu levels coupled over %s; run folder %s\n%s", case_file.c_str(), cs.levels.size(),
               ep.c_str(), run_dir.c_str(), placement.describe().c_str());
   for (const auto& lvl : cs.levels)

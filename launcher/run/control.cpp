@@ -1,4 +1,4 @@
-#include "control.hpp"
+#include "run/control.hpp"
 
 #include <unistd.h>
 
@@ -14,7 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "checkpoints.hpp"
+#include "run/checkpoints.hpp"
 #include "config/case_parser.hpp"
 #include "io/atomic_file.hpp"
 

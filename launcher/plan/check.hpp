@@ -7,7 +7,7 @@
 #include <string>
 
 #include "config/case_spec.hpp"
-#include "throughput.hpp"
+#include "plan/throughput.hpp"
 
 namespace mlcg::launcher {
 

@@ -13,8 +13,8 @@
 #include <string>
 
 #include "config/case_spec.hpp"
-#include "control.hpp"
-#include "supervise.hpp"
+#include "run/control.hpp"
+#include "run/supervise.hpp"
 
 namespace mlcg::launcher {
 

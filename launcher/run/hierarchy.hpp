@@ -6,12 +6,12 @@
 #include <string>
 
 #include "config/case_spec.hpp"
-#include "hosts.hpp"
+#include "hosts/hosts.hpp"
 
 namespace mlcg::launcher {
 
 // Returns the exit code of the run (0 when every process completed). `placement`: where each
-// process runs and the bus security (hosts.hpp); the default is this machine over ipc.
+// process runs and the bus security (hosts/hosts.hpp); the default is this machine over ipc.
 int run_hierarchy(const config::CaseSpec& cs, const std::string& case_file, const std::string& out_dir, bool quiet,
                   Placement placement = {});
 // `mlcg resume RUN_DIR`: the same case, coupler and levels from checkpoints/manifest.json; with

@@ -1,4 +1,4 @@
-#include "status.hpp"
+#include "run/status.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -12,7 +12,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "checkpoints.hpp"
+#include "run/checkpoints.hpp"
 #include "io/atomic_file.hpp"
 
 namespace fs = std::filesystem;

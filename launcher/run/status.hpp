@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "supervise.hpp"
+#include "run/supervise.hpp"
 
 namespace mlcg::launcher {
 

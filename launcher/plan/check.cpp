@@ -1,4 +1,4 @@
-#include "check.hpp"
+#include "plan/check.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,9 +12,9 @@
 #include "config/regions.hpp"
 #include "from_case.hpp"
 #include "level/stability_preview.hpp"
-#include "process.hpp"
-#include "run_case.hpp"
-#include "run_folder.hpp"
+#include "process/process.hpp"
+#include "run/run_case.hpp"
+#include "run/run_folder.hpp"
 #include "scene/beverloo.hpp"
 
 namespace fs = std::filesystem;

@@ -1,4 +1,4 @@
-#include "checkpoints.hpp"
+#include "run/checkpoints.hpp"
 
 #include <fstream>
 #include <stdexcept>

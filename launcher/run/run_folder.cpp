@@ -1,4 +1,4 @@
-#include "run_folder.hpp"
+#include "run/run_folder.hpp"
 
 #include <cctype>
 #include <cerrno>
@@ -9,7 +9,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
-#include "checkpoints.hpp"
+#include "run/checkpoints.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,4 +1,4 @@
-#include "study_file.hpp"
+#include "study/study_file.hpp"
 
 #include <algorithm>
 #include <cstdint>
@@ -13,7 +13,7 @@
 #include "config/case_keys.hpp"
 #include "config/case_schema.hpp"
 #include "config/case_parser.hpp"
-#include "run_case.hpp"
+#include "run/run_case.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,10 +1,10 @@
-#include "swap.hpp"
+#include "run/swap.hpp"
 
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
 
-#include "checkpoints.hpp"
+#include "run/checkpoints.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,4 +1,4 @@
-#include "hosts.hpp"
+#include "hosts/hosts.hpp"
 
 #include <arpa/inet.h>
 #include <netdb.h>
@@ -20,7 +20,7 @@
 
 #include "bus/curve.hpp"
 #include "config/case_keys.hpp"
-#include "process.hpp"
+#include "process/process.hpp"
 
 namespace fs = std::filesystem;
 

@@ -5,7 +5,7 @@
 
 #include "config/case_spec.hpp"
 #include "config/region_rules.hpp"
-#include "hosts.hpp"
+#include "hosts/hosts.hpp"
 
 namespace mlcg::launcher {
 

@@ -1,4 +1,4 @@
-#include "study.hpp"
+#include "study/study.hpp"
 
 #include <cstdio>
 #include <cstdlib>
@@ -7,11 +7,11 @@
 #include <fmt/format.h>
 
 #include "io/atomic_file.hpp"
-#include "process.hpp"
-#include "run_case.hpp"
-#include "run_folder.hpp"
-#include "study_file.hpp"
-#include "study_report.hpp"
+#include "process/process.hpp"
+#include "run/run_case.hpp"
+#include "run/run_folder.hpp"
+#include "study/study_file.hpp"
+#include "study/study_report.hpp"
 
 namespace fs = std::filesystem;
 

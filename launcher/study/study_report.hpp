@@ -11,7 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "study_file.hpp"
+#include "study/study_file.hpp"
 
 namespace mlcg::launcher {
 
