@@ -160,7 +160,7 @@ void Level::finish_run(RunStatus status, const std::string& reason, bool output_
   for (const auto& pr : scene_.probes) {
     const auto w = pr.window_stats();
     if (w.samples > 0)
-      log_->info("probe '{}': mass flow {:.4f} +- {:.4f} kg/s over {} samples; mean's 95 % CI +- {:.4f} kg/s ({})",
+      log_->info("probe '{}': mass flow {:.4g} +- {:.2g} kg/s over {} samples; mean's 95 % CI +- {:.2g} kg/s ({})",
                  pr.params().name, w.mean, w.stddev, w.samples, w.ci.ci95, w.ci.method());
     if (w.samples > 1 && w.ci.lag1 > stats::kLag1Limit)
       log_->warn("probe '{}': the batch means are still correlated (lag 1: {:.2f}), so the interval is likely too "

@@ -166,9 +166,10 @@ nlohmann::json read_json_or_null(const fs::path& p) {
 
 std::string probe_flow_text(const nlohmann::json& probe) {
   const auto ci = probe.find("ci95_kg_per_s");
-  return fmt::format("mass flow {:.4f} +- {:.4f} kg/s, mean's 95 % CI +- {}", probe.value("mean_kg_per_s", 0.0),
+  // significant digits: an hourglass's 2 g/s must not read "0.0019 +- 0.0002, CI +- 0.0000"
+  return fmt::format("mass flow {:.4g} +- {:.2g} kg/s, mean's 95 % CI +- {}", probe.value("mean_kg_per_s", 0.0),
                      probe.value("std_kg_per_s", 0.0),
-                     ci != probe.end() && ci->is_number() ? fmt::format("{:.4f} kg/s", ci->get<double>()) : "n/a");
+                     ci != probe.end() && ci->is_number() ? fmt::format("{:.2g} kg/s", ci->get<double>()) : "n/a");
 }
 
 }  // namespace mlcg::launcher

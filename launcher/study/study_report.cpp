@@ -146,16 +146,18 @@ std::vector<StudyRow> combine_replicas(std::vector<StudyRow> runs) {
 namespace {
 // "n/a" for an interval a run did not record.
 std::string fixed(double x, int digits) { return std::isfinite(x) ? fmt::format("{:.{}f}", x, digits) : "n/a"; }
+// Significant digits, for flows from grams to tonnes per second ("n/a" as above).
+std::string sig(double x, int digits) { return std::isfinite(x) ? fmt::format("{:.{}g}", x, digits) : "n/a"; }
 // An empty csv cell for it.
 std::string csv_number(double x) { return std::isfinite(x) ? fmt::format("{:.9g}", x) : ""; }
 nlohmann::json json_number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(); }
 }  // namespace
 
 std::string console_line(const StudyRow& r) {
-  return fmt::format("{:<16} {:9.4f} +- {} kg/s (95 % CI)  error {:+6.1f} +- {} %  wall {:8.1f} s  speedup {:.2f}{}{}",
-                     r.v->name, r.mdot, fixed(r.ci95, 4), r.error_pct, fixed(r.error_ci_pct, 1), r.wall,
+  return fmt::format("{:<16} {:>9} +- {} kg/s (95 % CI)  error {:+6.1f} +- {} %  wall {:8.1f} s  speedup {:.2f}{}{}",
+                     r.v->name, sig(r.mdot, 4), sig(r.ci95, 2), r.error_pct, fixed(r.error_ci_pct, 1), r.wall,
                      r.speedup_wall,
-                     r.replicas > 1 ? fmt::format("  ({} replicas, spread {:.4f})", r.replicas, r.spread) : "",
+                     r.replicas > 1 ? fmt::format("  ({} replicas, spread {:.2g})", r.replicas, r.spread) : "",
                      r.reused ? "  (reused)" : "");
 }
 
@@ -221,11 +223,11 @@ void write_csv(const StudySpec& s, const std::vector<StudyRow>& rows) {
 // One table line of study.md.
 std::string md_row(const StudyRow& r, bool swept) {
   const std::string value = r.v->sweep.empty() ? "—" : fmt::format("{} = {}", r.v->sweep_key, r.v->sweep_value);
-  const std::string reps = r.replicas > 1 ? fmt::format("{} (spread {:.4f})", r.replicas, r.spread) : "1";
-  return fmt::format("| {}{} |{} {} | {:.4f} ± {} | {:.4f} | {} | {:+.1f} ± {} % | {:.1f} | {:.1f}{} | {:.3g} | {:.3g} "
+  const std::string reps = r.replicas > 1 ? fmt::format("{} (spread {:.2g})", r.replicas, r.spread) : "1";
+  return fmt::format("| {}{} |{} {} | {} ± {} | {:.2g} | {} | {:+.1f} ± {} % | {:.1f} | {:.1f}{} | {:.3g} | {:.3g} "
                      "| {:.2f} / {:.2f} | {:.2f} |\n",
                      r.v->label, r.reused ? " (reused)" : "", swept ? fmt::format(" {} |", value) : std::string(),
-                     r.levels, r.mdot, fixed(r.ci95, 4), r.sigma, reps, r.error_pct, fixed(r.error_ci_pct, 1), r.wall,
+                     r.levels, sig(r.mdot, 4), sig(r.ci95, 2), r.sigma, reps, r.error_pct, fixed(r.error_ci_pct, 1), r.wall,
                      r.cpu, r.cpu_measured ? "" : " *", r.particle_steps, r.wall > 0.0 ? r.particle_steps / r.wall : 0.0,
                      r.speedup_wall, r.speedup_cpu, r.step_ratio);
 }
@@ -245,8 +247,8 @@ std::string every_probe_md(const std::vector<std::vector<StudyRow>>& every_probe
                     "| --- | --- | --- | --- | --- |\n";
   for (const auto& rows : every_probe)
     for (const auto& r : rows)
-      out += fmt::format("| {} | {} | {:.4f} ± {} | {} | {:+.1f} ± {} % |\n", r.probe, r.v->label, r.mdot,
-                         fixed(r.ci95, 4),
+      out += fmt::format("| {} | {} | {} ± {} | {} | {:+.1f} ± {} % |\n", r.probe, r.v->label, sig(r.mdot, 4),
+                         sig(r.ci95, 2),
                          r.probe_level.empty() ? "the run" : r.probe_level + (r.probe_resolved ? "" : " (coarse)"),
                          r.error_pct, fixed(r.error_ci_pct, 1));
   return out;
