@@ -333,6 +333,18 @@ TEST_F(Study, RerunAndAChangedCaseRunAgain) {
   ASSERT_EQ(study(cg2_only("cg2.toml", "cg2_only"), &out), 0) << out;
   EXPECT_GT(fs::last_write_time(s), t3) << "an edited base must not reuse the variant's run";
   EXPECT_NE(out.find("the case changed"), std::string::npos) << out;
+  // A launcher that died before writing anything leaves its lock alone in the folder: that folder is run again,
+  // not refused as "not a run folder"; a folder of the user's beside it still is refused.
+  fs::remove_all(kDir / "cg2_only" / "cg2");
+  fs::create_directories(kDir / "cg2_only" / "cg2");
+  std::ofstream(kDir / "cg2_only" / "cg2" / "launcher.lock") << "12345\n";
+  ASSERT_EQ(study(cg2_only("cg2.toml", "cg2_only"), &out), 0) << out;
+  EXPECT_TRUE(fs::exists(s)) << out;
+  fs::remove_all(kDir / "cg2_only" / "cg2");
+  fs::create_directories(kDir / "cg2_only" / "cg2");
+  std::ofstream(kDir / "cg2_only" / "cg2" / "notes.txt") << "mine\n";
+  EXPECT_EQ(study(cg2_only("cg2.toml", "cg2_only"), &out), 2) << out;
+  EXPECT_NE(out.find("is not a run folder; not replacing it"), std::string::npos) << out;
 }
 
 // The reference is an earlier run (`run = ...`, here the plain coarse grain); a sweep derives one case per value.

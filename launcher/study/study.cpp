@@ -43,6 +43,10 @@ void clear_run_folder(const fs::path& run) {
   if (!fs::exists(run)) return;
   bool is_run = false;
   for (const char* f : {"summary.json", "case.toml", "levels", "log.txt", "coupler.log"}) is_run |= fs::exists(run / f);
+  // a folder a launcher claimed and died in before it wrote anything holds only its lock (and batch files)
+  bool claimed_only = true;
+  for (const auto& e : fs::directory_iterator(run)) claimed_only &= submission_file(e.path().filename().string());
+  is_run |= claimed_only;
   if (!is_run && !fs::is_empty(run))
     throw StudyError(run.string() + " exists and is not a run folder; not replacing it (move it, or give the study "
                                     "another folder)");
