@@ -14,6 +14,7 @@
 #include "config/regions.hpp"
 #include "scene/outlets.hpp"
 #include "case_parser_support.hpp"
+#include "files.hpp"
 #include "messages.hpp"
 #include "stl_support.hpp"
 
@@ -29,9 +30,9 @@ using mlcg::test::write_stl;
 
 // ---- meshes made of square cells -------------------------------------------------------
 
+// Per test process (ctest runs this binary's tests in parallel processes: a shared folder raced).
 fs::path scratch(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("mlcg_test_outlets_" + name);
-  fs::remove_all(d);
+  const fs::path d = mlcg::test::fresh_temp_path("test_outlets_" + name);
   fs::create_directories(d);
   return d;
 }
