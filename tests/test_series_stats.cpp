@@ -1,4 +1,4 @@
-// The batch-means confidence interval of a series' mean (measure/series_stats):
+// The batch-means confidence interval of a series' mean (stats/series_stats):
 // coverage of the true mean over many synthetic series whose autocorrelation is
 // known, against the naive s / sqrt(n) interval; the Student t quantile against
 // printed tables; the batch rule on small hand-computed series.
@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "measure/series_stats.hpp"
+#include "stats/series_stats.hpp"
 
 namespace {
 

@@ -18,7 +18,7 @@
 
 #include "files.hpp"
 #include "shell.hpp"
-#include "measure/series_stats.hpp"
+#include "stats/series_stats.hpp"
 
 namespace fs = std::filesystem;
 using mlcg::test::read_json;

@@ -9,7 +9,7 @@ number and mass of the particles below z = 0 (the neck's centre). The hourglass 
 z = 0 grows by the net mass through the neck: a sample is the mass it gained between two rows / their time
 apart (kg/s), as the probe of an mlcg run samples the mass crossing its disk. Samples whose interval lies in
 the window are kept; the mean, the standard deviation of the samples and the 95 % interval by batch means
-follow mlcg's probe (dem_level/measure/series_stats.hpp: batches of b samples, b doubled while the lag-1
+follow mlcg's probe (common/stats/series_stats.hpp: batches of b samples, b doubled while the lag-1
 autocorrelation of the batch means is above 0.1 and at least 10 batches remain, t quantile with B - 1
 degrees of freedom). Plain python3 (3.11+, for tomllib), no packages.
 

@@ -19,12 +19,12 @@
 #include "core/particles.hpp"
 #include "insertion/inserter.hpp"
 #include "level/force_dispatch.hpp"
-#include "level/stability.hpp"
 #include "measure/cell_grid.hpp"
 #include "measure/probe.hpp"
 #include "neighbor/neighbor_list.hpp"
 #include "parallel/decomposition.hpp"
 #include "parallel/exchange.hpp"
+#include "stability/stability.hpp"
 #include "walls/wall_set.hpp"
 
 namespace mlcg {

@@ -16,10 +16,10 @@
 #include "io/grid_series.hpp"
 #include "io/h5.hpp"
 #include "io/snapshot_series.hpp"
-#include "level/initial_state.hpp"
 #include "level/level.hpp"
-#include "level/stability_preview.hpp"
 #include "scene/walls_from_case.hpp"
+#include "stability/initial_state.hpp"
+#include "stability/stability_preview.hpp"
 
 namespace mlcg {
 

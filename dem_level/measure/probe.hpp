@@ -11,7 +11,7 @@
 
 #include "core/particles.hpp"
 #include "measure/plane_crossings.hpp"
-#include "measure/series_stats.hpp"
+#include "stats/series_stats.hpp"
 
 namespace mlcg {
 

@@ -11,11 +11,11 @@
 
 #include "config/regions.hpp"
 #include "from_case.hpp"
-#include "level/stability_preview.hpp"
 #include "process/process.hpp"
 #include "run/run_case.hpp"
 #include "run/run_folder.hpp"
 #include "scene/beverloo.hpp"
+#include "stability/stability_preview.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,6 +1,6 @@
 #pragma once
 // `mlcg check CASE`: what `mlcg run CASE` checks before it starts anything (prepare_case, the same code),
-// each level's time-step guard (the level's own, level/stability_preview.hpp) and the coupler's grids
+// each level's time-step guard (the level's own, stability/stability_preview.hpp) and the coupler's grids
 // (coupling_from_case, the coupler's own), without starting a process or writing a run folder. Then what
 // the run would cost: the levels, dt against the Rayleigh and Hertz limits, the coupled regions, the
 // particles per level, the particle-steps and the wall time on this machine (throughput.hpp).

@@ -16,10 +16,10 @@
 #include "config/regions.hpp"
 #include "from_case.hpp"
 #include "io/atomic_file.hpp"
-#include "level/stability_preview.hpp"
 #include "run/checkpoints.hpp"
 #include "scene/outlets.hpp"
 #include "scene/vessel.hpp"
+#include "stability/stability_preview.hpp"
 
 namespace fs = std::filesystem;
 

@@ -19,11 +19,11 @@
 #include "run/hierarchy.hpp"
 #include "hosts/hosts.hpp"
 #include "io/atomic_file.hpp"
-#include "level/stability_preview.hpp"
 #include "process/process.hpp"
 #include "run/run_folder.hpp"
 #include "scene/outlets.hpp"
 #include "scene/vessel.hpp"
+#include "stability/stability_preview.hpp"
 
 namespace fs = std::filesystem;
 

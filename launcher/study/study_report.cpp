@@ -9,7 +9,7 @@
 
 #include "config/case_parser.hpp"
 #include "io/atomic_file.hpp"
-#include "measure/series_stats.hpp"
+#include "stats/series_stats.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,4 +1,4 @@
-#include "measure/series_stats.hpp"
+#include "stats/series_stats.hpp"
 
 #include <cmath>
 #include <stdexcept>

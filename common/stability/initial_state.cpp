@@ -1,4 +1,4 @@
-#include "level/initial_state.hpp"
+#include "stability/initial_state.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "level/stability.hpp"
+#include "stability/stability.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -9,8 +9,8 @@
 #include "config/case_spec.hpp"
 #include "core/material.hpp"
 #include "core/particles.hpp"
-#include "level/stability.hpp"
 #include "scene/materials_from_case.hpp"
+#include "stability/stability.hpp"
 
 namespace mlcg {
 

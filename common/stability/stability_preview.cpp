@@ -1,11 +1,11 @@
-#include "level/stability_preview.hpp"
+#include "stability/stability_preview.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "level/initial_state.hpp"
 #include "scene/walls_from_case.hpp"
+#include "stability/initial_state.hpp"
 
 namespace mlcg {
 
