@@ -43,7 +43,7 @@ void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std:
       // Favre averages of the net crossing; a net crossing is mostly one-way.
       s.velocity = Vec3{momentum[3 * f], momentum[3 * f + 1], momentum[3 * f + 2]} / mass[f];
       const Vec3 a = Vec3{moment[3 * f], moment[3 * f + 1], moment[3 * f + 2]} / mass[f];
-      if (anchored_on(f, a)) {
+      if (anchored_on(f, a) && reachable(a)) {
         s.anchor = a;
         s.seen = true;
       }
@@ -62,6 +62,15 @@ bool InsertionPlanner::anchored_on(size_t f, const Vec3& a) const {
   for (int k = 0; k < 3; ++k)
     if (n[k] == 0.0 && (a[k] < lo[k] - tol || a[k] > hi[k] + tol)) return false;
   return true;
+}
+
+bool InsertionPlanner::reachable(const Vec3& a) const {
+  // The mean of a net crossing is a crossing point only when the crossing is one-way: where coarse particles
+  // cross a side face both ways it can fall anywhere on the face, outside the walls too (wide_cone_junction's
+  // planned region: an anchor behind the cone, and a fine particle placed outside the vessel from it). The
+  // anchor must be reached from the grid's inside point without crossing a wall, as the grid's cells are.
+  const auto& ip = geo_.grid().inside_point();
+  return ip.size() != 3 || fits_(Vec3{ip[0], ip[1], ip[2]}, a, 0.0);
 }
 
 void InsertionPlanner::add_returned(const std::vector<double>& mass) {

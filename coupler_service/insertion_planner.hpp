@@ -93,6 +93,7 @@ class InsertionPlanner {
  private:
   template <class Rng> double draw_radius(const FaceState& f, Rng& rng) const;
   bool anchored_on(size_t f, const Vec3& a) const;  // a crossing point mean may serve face f as its anchor
+  bool reachable(const Vec3& a) const;              // ... and lies inside the walls, seen from the inside point
 
   const bus::CouplingGeometry& geo_;
   PlannerParams prm_;

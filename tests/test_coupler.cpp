@@ -232,6 +232,47 @@ TEST(InsertionPlanner, MassIsConservedExactlyPerFaceAndNothingOverlaps) {
   }
 }
 
+// A wall across the grid at x = 4.5 cm (the vessel on its low side): the top faces over x 4-6 cm are half
+// outside it. Coarse mass crosses them twice: first one-way (its mean inside, at x = 4.2 cm), then both ways,
+// whose net mean falls outside (x = 5.5 cm), as on wide_cone_junction's side faces. That mean must not become
+// the faces' anchor: from an anchor outside the walls, a sphere outside them is reachable, and was placed there.
+TEST(InsertionPlanner, AnAnchorOutsideTheWallsIsNotTakenSoNothingIsPlacedOutside) {
+  bus::CouplingGrid grid = small_grid();
+  for (double v : {0.01, 0.01, 0.03}) grid.add_inside_point(v);
+  const bus::CouplingGeometry geo(grid);
+  const double wall = 0.045;
+  const auto fits = [wall](const Vec3& anchor, const Vec3& x, double r) {
+    return std::abs(x.x - wall) >= r && (anchor.x < wall) == (x.x < wall);
+  };
+  InsertionPlanner planner(geo, planner_params(), fits);
+  const double m_coarse = 1000.0 * 4.0 / 3.0 * M_PI * std::pow(2.8e-3, 3);
+  size_t past_wall_faces = 0, placed_there = 0;
+  for (uint64_t k = 0; k < 2; ++k) {
+    bus::GridStats g;
+    face_flux(g, geo, 20.0 * m_coarse, {0.0, 0.0, -0.5});
+    for (size_t f = 0; f < geo.faces(); ++f) {
+      if (geo.cell_centre(geo.cell_of_face(f)).x < 0.04 || !geo.is_top(f)) continue;
+      past_wall_faces += k == 0;
+      g.set_face_moment(3 * f, 20.0 * m_coarse * (k == 0 ? 0.042 : 0.055));
+    }
+    planner.add_crossings({g.face_mass().begin(), g.face_mass().end()},
+                          {g.face_momentum().begin(), g.face_momentum().end()},
+                          {g.face_moment().begin(), g.face_moment().end()},
+                          {g.face_histogram().begin(), g.face_histogram().end()});
+    for (const auto& p : planner.plan(k + 1, {})) {
+      EXPECT_LE(p.x.x + p.r, wall + 1e-15) << "a fine particle placed outside the wall, interval " << k;
+      placed_there += p.x.x > 0.04;
+    }
+  }
+  ASSERT_EQ(past_wall_faces, 3u);
+  EXPECT_GT(placed_there, 0u) << "the faces the wall cuts place their particles on its inside";
+  for (size_t f = 0; f < geo.faces(); ++f) {
+    if (geo.is_top(f) && geo.cell_centre(geo.cell_of_face(f)).x > 0.04) {
+      EXPECT_NEAR(planner.faces()[f].anchor.x, 0.042, 1e-12) << "face " << f;
+    }
+  }
+}
+
 TEST(InsertionPlanner, FullSlabCarriesTheRemainderToLaterIntervals) {
   const bus::CouplingGeometry geo(small_grid());
   InsertionPlanner planner(geo, planner_params(), inside_box);
