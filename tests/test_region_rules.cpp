@@ -160,6 +160,29 @@ TEST(RegionRules, RefusesATopTooCloseAboveTheOrifice) {
   EXPECT_NE(e.find("raise max z to at least 0.024 m"), std::string::npos) << e;
 }
 
+TEST(RegionRules, RefusesATopOneCellAboveTheOrifice) {  // 1.25 D0 passes the D0 rule; one 3 cm cell does not
+  const std::string text = quickstart("min = [-0.04, -0.04, -0.02]\nmax = [0.04, 0.04, 0.04]\ncell_size = 0.02",
+                                      "min = [-0.045, -0.045, -0.03]\nmax = [0.045, 0.045, 0.03]\ncell_size = 0.03");
+  const auto r = rules_of(text);
+  ASSERT_EQ(r.errors.size(), 1u) << all(r.errors);
+  const std::string& e = r.errors[0];
+  EXPECT_NE(e.find("coupling.regions[0].max: the region's top is z = 0.03 m, 1.00 cells of 0.03 m above the orifice"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("more than one cell is needed"), std::string::npos) << e;
+  EXPECT_NE(e.find("raise max z to 0.06 m or use smaller cells"), std::string::npos) << e;
+  EXPECT_FALSE(has(r.errors, "orifice diameters above")) << all(r.errors);
+}
+
+TEST(RegionRules, WarnsOfATopFewerCellsAboveTheOrificeThanMeasured) {  // 1.5 cells: above 1, below the 1.8 measured
+  const auto r = rules_of(quickstart("min = [-0.04, -0.04, -0.02]\nmax = [0.04, 0.04, 0.04]\ncell_size = 0.02",
+                                     "min = [-0.04, -0.04, -0.01]\nmax = [0.04, 0.04, 0.03]\ncell_size = 0.02"));
+  EXPECT_TRUE(r.errors.empty()) << all(r.errors);
+  EXPECT_TRUE(has(r.warnings, "1.50 cells of 0.02 m above the orifice")) << all(r.warnings);
+  EXPECT_TRUE(has(r.warnings, "below the advised 1.8 cells no accuracy is promised")) << all(r.warnings);
+  EXPECT_FALSE(has(r.notes, "expect the discharge")) << all(r.notes);
+}
+
 TEST(RegionRules, TopIsTheRoundedUpCellBoundary) {  // max z 0.021 rounds up to 0.04: 1.67 D0, accepted
   const auto r = rules_of(quickstart("max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.021]"));
   EXPECT_FALSE(has(r.errors, "orifice diameters above")) << all(r.errors);
@@ -265,16 +288,18 @@ TEST(RegionRules, EveryHopperSceneHasItsVariantsAndPasses) {
   int scenes = 0;
   for (const auto& e : fs::directory_iterator(kSrc + "/cases/hoppers")) {
     if (!e.is_directory() || e.path().filename() == "results") continue;  // results/: the studies' tables
-    for (const char* f : {"reference.toml", "cg2.toml", "mlcg.toml", "study.toml"})
+    for (const char* f : {"reference.toml", "cg2.toml", "mlcg.toml", "planned.toml", "study.toml"})
       EXPECT_TRUE(fs::is_regular_file(e.path() / f)) << e.path() / f;
     for (const char* f : {"reference.toml", "cg2.toml"})  // single levels: nothing to check, nothing refused
       EXPECT_TRUE(rules(load_case((e.path() / f).string())).errors.empty()) << e.path() / f;
-    const CaseSpec cs = load_case((e.path() / "mlcg.toml").string());
-    const auto r = rules(cs);
-    EXPECT_TRUE(r.errors.empty()) << e.path() << ":\n" << all(r.errors);
-    // sized to pass clean: 3.3-3.6 coarse diameters per cell, tops 1.13-1.33 D0 above the orifice
-    EXPECT_TRUE(r.warnings.empty()) << e.path() << ":\n" << all(r.warnings);
-    EXPECT_EQ(outlets_of(cs).size(), 1u) << e.path();
+    // sized to pass clean: 3.3-3.6 coarse diameters per cell, tops 1.13-1.33 D0 and 1.8-2 cells above the orifice
+    for (const char* f : {"mlcg.toml", "planned.toml"}) {
+      const CaseSpec cs = load_case((e.path() / f).string());
+      const auto r = rules(cs);
+      EXPECT_TRUE(r.errors.empty()) << e.path() / f << ":\n" << all(r.errors);
+      EXPECT_TRUE(r.warnings.empty()) << e.path() / f << ":\n" << all(r.warnings);
+      EXPECT_EQ(outlets_of(cs).size(), 1u) << e.path() / f;
+    }
     ++scenes;
   }
   EXPECT_GE(scenes, 6);

@@ -4,7 +4,8 @@
 //   - levels: the case's level as the finest, coarse levels at 2x (and 4x) its alpha with dt scaled alike;
 //   - one fine region per outlet of the scene (scene/outlets.hpp), or one around outlets whose regions would
 //     touch; each in the outlet's own frame: kPlanDepth (or kPlanDepthOnePercent for --error below 3) outlet
-//     widths deep along the inward normal, one cell beyond the outlet, the outlet's half-length plus one
+//     widths deep along the inward normal (a downward outlet's to the nearest whole cell, never below the
+//     region rules' advised height), one cell beyond the outlet, the outlet's half-length plus one
 //     width across it, in cubic cells of kPlanCellDiameters coarse diameters; grown to hold every probe;
 //   - with three levels a region of the coarsest level around each, two of its cells deeper and one wider;
 //   - the coupling interval automatic, events at fixed times (a hierarchy's levels must open together):
