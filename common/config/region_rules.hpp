@@ -49,7 +49,7 @@ inline constexpr double kAdvisedTopAboveOrifice = 1.1;
 // without the integral: within 1.5 % at 2 D0. A taller region costs fine particles.
 inline constexpr double kOnePercentTopAboveOrifice = 2.0;
 // Cells between the orifice and the region's top: the top row is the transition layer, so with one cell or
-// less there is no correction cell above the orifice and the fine particles are placed straight over it (refused).
+// less there is no correction cell above the orifice and the fine particles are placed straight over it.
 // Evidence: cases/hourglass, the neck one 5 mm cell below the top (1.25 D0): -17.9 +- 7.3 %; two cells (2.5 D0):
 // +3.5 +- 1.9 %; the hoppers of cases/hoppers, 1.8-2 cells above at 1.13-1.33 D0, within 3 %. Below the advised
 // 1.8 (the fewest measured within 3 %) a warning and no promise; mlcg plan gives whole cells, so 2.
