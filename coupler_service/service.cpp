@@ -279,8 +279,8 @@ void Service::write_final(const std::string& status) const {
   io::write_file_atomic(opt_.out_dir / "coupling" / "summary.json", j.dump(2) + "\n");
 }
 
-void Service::write_logs() {
-  const double t = static_cast<double>(k_ + 1) * coupler_.config().interval;
+void Service::write_logs(uint64_t k) {
+  const double t = static_cast<double>(k + 1) * coupler_.config().interval;
   for (size_t r = 0; r < csv_.size(); ++r) {
     const RegionLog& lg = coupler_.log(r);
     double crossed = 0.0, inserted = 0.0, rem = 0.0, ret = 0.0, sp = 0.0, pv = 0.0, tr = 0.0, tmax = 0.0, amax = 0.0;
@@ -300,7 +300,7 @@ void Service::write_logs() {
     for (const auto& a : lg.acceleration) amax = std::max(amax, norm(a));
     csv_[r] << fmt::format("{},{:.9g},{:.12g},{:.12g},{:.6g},{},{:.9g},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g},{:.12g},{:.9g},"
                            "{:.12g},{:.12g},{:.12g}\n",
-                           k_, t, crossed, inserted, rem, lg.inserted, lg.inserted_mass, sp, pv, tr, tmax, amax, ret,
+                           k, t, crossed, inserted, rem, lg.inserted, lg.inserted_mass, sp, pv, tr, tmax, amax, ret,
                            lg.returned_mass, lg.coarse_mass, lg.fine_mass, lg.fine_leaving);
   }
 }
@@ -380,16 +380,21 @@ int Service::loop() {
     if (all(&Peer::has_stats)) {
       std::vector<bus::IntervalStats> stats;
       for (auto& p : peers_) stats.push_back(std::move(p.stats));
-      write_progress(stats);
       try {
+        // The levels wait for these commands: what they do not need (the logs, the progress file) is written
+        // after they are sent, except that the logs a checkpoint covers are on disk before it.
+        const uint64_t k = k_;
         const double b0 = now();
-        auto cmds = coupler_.advance(k_, stats);
-        write_logs();
+        auto cmds = coupler_.advance(k, stats);
+        const bool checkpoint = checkpoint_due_;
+        if (checkpoint) write_logs(k);
         ++k_;
-        if (checkpoint_due_) write_checkpoint(stats, cmds);
-        busy_ += now() - b0;
+        if (checkpoint) write_checkpoint(stats, cmds);
         for (auto& p : peers_) p.has_stats = false;
         send_commands(std::move(cmds));
+        if (!checkpoint) write_logs(k);
+        write_progress(stats, k);
+        busy_ += now() - b0;
       } catch (const std::exception& e) {
         fail(e.what());
         return 2;

@@ -97,7 +97,7 @@ class Service {
   std::string awaited() const;
   void fail(const std::string& why);
   void send_commands(std::vector<bus::IntervalCommands> cmds);
-  void write_logs();
+  void write_logs(uint64_t k);  // the region logs' rows of interval k
   // Per-face totals and a summary (coupling/faces_region<r>.csv, coupling/summary.json), atomically.
   void write_final(const std::string& status) const;
   // Consistent checkpoints (service_checkpoint.cpp).
@@ -105,7 +105,7 @@ class Service {
   void write_checkpoint(const std::vector<bus::IntervalStats>& stats, const std::vector<bus::IntervalCommands>& next);
   void resume_logs();  // keeps the rows of region<r>.csv before the resumed interval
   // coupling/progress.json (service_progress.cpp): per level simulated time, particles, particle-steps/s; ETA.
-  void write_progress(const std::vector<bus::IntervalStats>& stats);
+  void write_progress(const std::vector<bus::IntervalStats>& stats, uint64_t k);
   bool all(bool Peer::*flag) const;
   std::string names(const std::function<bool(const Peer&)>& pick) const;  // 'a', 'b'
 

@@ -14,13 +14,13 @@ double wall_now() {
 }
 }  // namespace
 
-void Service::write_progress(const std::vector<bus::IntervalStats>& stats) {
+void Service::write_progress(const std::vector<bus::IntervalStats>& stats, uint64_t k) {
   if (opt_.out_dir.empty()) return;
   const auto& cfg = coupler_.config();
-  const double t = wall_now(), sim = static_cast<double>(k_ + 1) * cfg.interval;
+  const double t = wall_now(), sim = static_cast<double>(k + 1) * cfg.interval;
   if (progress_wall_ < 0.0) {
     progress_wall_ = start_wall_ = t;
-    start_sim_ = static_cast<double>(k_) * cfg.interval;
+    start_sim_ = static_cast<double>(k) * cfg.interval;
   }
   for (size_t l = 0; l < peers_.size(); ++l) {
     peers_[l].psteps += static_cast<double>(stats[l].particles()) * static_cast<double>(whole_steps(cfg.interval, cfg.levels[l].dt));
@@ -29,7 +29,7 @@ void Service::write_progress(const std::vector<bus::IntervalStats>& stats) {
   if (t - progress_wall_ < 1.0) return;
   progress_wall_ = t;
   nlohmann::json j;
-  j["interval"] = k_;
+  j["interval"] = k;
   j["sim_time"] = sim;
   j["end_time"] = opt_.end_time;
   const double speed = (sim - start_sim_) / std::max(1e-9, t - start_wall_);  // simulated s per wall s

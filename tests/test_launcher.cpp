@@ -136,10 +136,11 @@ namespace {
 // wall time (they do not overlap, so coupling work cannot be inflated, or wait counted as work, without their sum
 // passing it), and the run's wall time is within the launcher's, as the test's own clock measured it.
 void check_overhead(const fs::path& dir, const nlohmann::json& s, double launcher_seconds) {
-  double work = 0.0, wall = 0.0;
+  double work = 0.0, wall = 0.0, wait[2] = {0.0, 0.0};
   for (const char* name : {"coarse", "fine"}) {
     const auto l = read_json(dir / "levels" / name / "summary.json");
     const double w = l["wall_seconds"].get<double>();
+    wait[name[0] == 'f'] = l["levels"][0]["performance"]["seconds"]["coupling_wait"].get<double>();
     double phases = 0.0;
     for (const auto& [phase, seconds] : l["levels"][0]["performance"]["seconds"].items()) phases += seconds.get<double>();
     EXPECT_GT(phases, 0.8 * w) << name << ": the timed phases miss part of the wall time";
@@ -155,6 +156,11 @@ void check_overhead(const fs::path& dir, const nlohmann::json& s, double launche
   const double share = s["coupling"]["overhead_share"].get<double>();
   EXPECT_NEAR(share, (work + busy) / wall, 1e-12 * share);
   EXPECT_LT(share, 1.0);
+  // The parts: the fine level, with the most particles and twice the steps, sets the pace; the coarse waits longer.
+  const auto& parts = s["coupling"]["overhead_parts"];
+  EXPECT_EQ(parts["pacing_level"], "fine");
+  EXPECT_LT(wait[1], wait[0]) << "the coarse level waited less than the fine one";
+  EXPECT_NEAR(parts["pacing_level_wait_share"].get<double>(), wait[1] / wall, 1e-12);
   std::printf("coupling overhead %.1f %% = (%.3g s level work + %.3g s coupler) / %.3g s wall (launcher %.3g s)\n",
               100.0 * share, work, busy, wall, launcher_seconds);
 }
