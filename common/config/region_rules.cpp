@@ -230,7 +230,7 @@ void check_siblings(const Check& c, long n, RegionRuleReport& out) {
       "{}: level '{}' is the coarse level of {} fine regions; two regions over one coarse level, one per outlet, "
       "were measured +26 % and +10 % off a fully resolved run on a hand-written two-outlet bin (one region over both "
       "outlets: +3.6 % and +2.4 %); as mlcg plan writes them, cases/outlets/two_outlets +0.9 % and -0.1 % and "
-      "three_outlets +0.9 %, +1.9 % and +3.2 %, one seed each, the small outlets' intervals wider than 3 %: this "
+      "three_outlets +0.9 %, +1.9 % and +3.2 % (its 2.5 cm outlet +3.4 % over three seeds): this "
       "region's accuracy is not yet vouched for; compare it with a fully resolved run (mlcg study)",
       c.at("coarse"), c.r.coarse, n));
 }
