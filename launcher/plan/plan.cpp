@@ -59,7 +59,10 @@ std::string vec(const Vec3& v) { return fmt::format("[{}, {}, {}]", num(v.x), nu
 // An outlet the flow does not leave downward (a hole in a side wall) is fed from above: the box also reaches
 // `depth` above the outlet's upper edge, against gravity (`up`, zero for a downward outlet). side_outlet: its
 // region 1.5 D0 above the hole's top was +3.2 +- 3.0 %, cut to 1.17 D0 by the centred rounding +8.6 +- 2.9 %.
-// A downward outlet whose normal is an axis (`down`): along that axis at least kAdvisedCellsAboveOrifice whole
+// The fewest whole cells a planned region reaches above a downward outlet: the rules' advised count, rounded up.
+const double kPlanCellsAbove = std::ceil(config::kAdvisedCellsAboveOrifice - 1e-9);
+
+// A downward outlet whose normal is an axis (`down`): along that axis at least kPlanCellsAbove whole
 // cells, and with `floor` > 0 the depth goes to the nearest whole cell, never below `floor`, instead of up:
 // rounding 1.5 D0 up to 2 cm cells put the top 2 D0 above a 3 cm orifice, and on fills 2-3 D0 deep
 // (cases/hoppers) the planned runs then cost as much as the reference.
@@ -84,9 +87,9 @@ RegionBox outlet_box(const Outlet& o, double depth, double beyond, double half, 
     box.lo[k] = o.center[k] - std::ceil(below / cell - 1e-9) * cell;
     box.hi[k] = o.center[k] + std::ceil(above / cell - 1e-9) * cell;
     if (!down || std::abs(n[k]) < 1.0 - 1e-9) continue;
-    const double cells = std::max(floor > 0.0 ? std::max(std::floor(depth / cell + 0.5 + 1e-9), std::ceil(floor / cell - 1e-9))
-                                              : std::ceil(depth / cell - 1e-9),
-                                  std::ceil(config::kAdvisedCellsAboveOrifice - 1e-9));
+    const double rounded = floor > 0.0 ? std::max(std::floor(depth / cell + 0.5 + 1e-9), std::ceil(floor / cell - 1e-9))
+                                       : std::ceil(depth / cell - 1e-9);
+    const double cells = std::max(rounded, kPlanCellsAbove);
     (n[k] < 0.0 ? box.hi[k] : box.lo[k]) = o.center[k] - n[k] * cells * cell;
   }
   return box;
@@ -137,7 +140,7 @@ std::vector<Region> outlet_regions(const config::CaseSpec& cs, const std::vector
         "{}: {:g} D0 deep along its inward normal{}, one cell past it, its half-length + 1 D0 across it{}", o.name,
         depth_widths,
         nearest ? fmt::format(" (to the nearest cell, at least {:g} D0 and {:g} cells: the region is alone over its "
-                              "coarse level)", floor_widths, std::ceil(config::kAdvisedCellsAboveOrifice - 1e-9))
+                              "coarse level)", floor_widths, kPlanCellsAbove)
         : down  ? " (rounded up to whole cells: the regions share their coarse level)"
                 : "",
         down ? "" : fmt::format(", {:g} D0 above its upper edge (it is fed from above)", depth_widths)));
