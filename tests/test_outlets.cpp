@@ -250,11 +250,21 @@ TEST(RegionRulesPerOutlet, OneRegionPerOutletPassesAndEachIsJudgedByItsOwn) {
   // region 0 against hole a (D0 3 cm, top 4 cm above it: 1.33 D0, passed), region 1 against hole b
   EXPECT_FALSE(has(r.warnings, "does not contain")) << all(r.warnings);
   EXPECT_FALSE(has(r.warnings, "orifice diameters above")) << all(r.warnings);
-  // but two regions over one coarse level were measured far off: no promise, a warning on each
-  for (const char* key : {"coupling.regions[0].coarse: level 'coarse' is the coarse level of 2 fine regions",
-                          "coupling.regions[1].coarse: level 'coarse' is the coarse level of 2 fine regions"})
-    EXPECT_TRUE(has(r.warnings, key)) << all(r.warnings);
+  // but regions side by side over one coarse level read high when shallow: region 0 (1.33 D0 over hole a) gets
+  // a warning that names the height to raise its top to, and no promise; region 1 (2 D0 over hole b) neither
+  EXPECT_TRUE(has(r.warnings, "coupling.regions[0].coarse: level 'coarse' is the coarse level of 2 fine regions, and "
+                              "this region's top is 1.33 D0 above the orifice ('outlet0'"))
+      << all(r.warnings);
+  EXPECT_TRUE(has(r.warnings, "raise max z to at least 0.06 m (2 D0)")) << all(r.warnings);
+  EXPECT_FALSE(has(r.warnings, "coupling.regions[1].coarse: level 'coarse' is the coarse level")) << all(r.warnings);
   EXPECT_FALSE(has(r.notes, "within about 3 %")) << all(r.notes);
+  // region 0 raised to 2 D0: no warning on either
+  std::string deep = kTwoFineLevels;
+  deep.replace(deep.find("max = [-0.02, 0.02, 0.04]"), 25, "max = [-0.02, 0.02, 0.06]");
+  const CaseSpec raised = two_hole_case(deep);
+  const auto both = check_region_rules(raised, mlcg::find_outlets(raised));
+  EXPECT_TRUE(both.errors.empty()) << all(both.errors);
+  EXPECT_FALSE(has(both.warnings, "fine regions")) << all(both.warnings);
   // the same region 0 alone over its coarse level: judged by hole a, with the 3 % note
   CaseSpec one = cs;
   one.coupling->regions.pop_back();

@@ -157,9 +157,8 @@ std::vector<Region> outlet_regions(const config::CaseSpec& cs, const std::vector
 }
 
 // The finest level's regions. A region alone over its coarse level has its depth rounded to the nearest cell
-// (cases/hoppers: within 2.2 % at 1.4-3.5x fewer particle-steps than rounded up); regions side by side keep the
-// depth rounded up: three_outlets' 3 cm outlet went from +0.9 % to +5.4 % when its region's top came down from
-// 2 to 1.33 D0 (2026-12-05), and its siblings from +1.9 / +3.2 % to +3.5 / +4.3 %.
+// (cases/hoppers: within 2.2 % at 1.4-3.5x fewer particle-steps than rounded up); regions side by side are
+// kPlanDepthSiblings deep, rounded up (config::kSiblingTopAboveOrifice: shallower ones read high).
 std::vector<Region> fine_regions(const config::CaseSpec& cs, const std::vector<Outlet>& outlets, double coarse_alpha,
                                  double depth_widths, double floor_widths) {
   const double h = cell_for(cs, coarse_alpha);
@@ -167,6 +166,8 @@ std::vector<Region> fine_regions(const config::CaseSpec& cs, const std::vector<O
   if (out.size() == 1) {
     std::vector<Region> alone = outlet_regions(cs, outlets, h, depth_widths, floor_widths);
     if (alone.size() == 1) out = std::move(alone);
+  } else if (depth_widths < kPlanDepthSiblings) {
+    out = outlet_regions(cs, outlets, h, kPlanDepthSiblings, 0.0);
   }
   for (auto& r : out) {
     if (clip_to_domain(r.box, h, cs.domain)) r.why.push_back("kept inside [domain]: its low side at the domain's, whole cells from there");

@@ -5,7 +5,7 @@
 //   - one fine region per outlet of the scene (scene/outlets.hpp), or one around outlets whose regions would
 //     touch; each in the outlet's own frame: kPlanDepth (or kPlanDepthOnePercent for --error below 3) outlet
 //     widths deep along the inward normal (a downward outlet's to the nearest whole cell, never below the
-//     region rules' advised height), one cell beyond the outlet, the outlet's half-length plus one
+//     region rules' advised height; regions side by side kPlanDepthSiblings, rounded up), one cell beyond the outlet, the outlet's half-length plus one
 //     width across it, in cubic cells of kPlanCellDiameters coarse diameters; grown to hold every probe;
 //   - with three levels a region of the coarsest level around each, two of its cells deeper and one wider;
 //   - the coupling interval automatic, events at fixed times (a hierarchy's levels must open together):
@@ -21,6 +21,9 @@ namespace mlcg::launcher {
 // Evidence the planner plans from (config/region_rules.hpp has the measured thresholds):
 inline constexpr double kPlanDepth = 1.5;            // outlet widths: silo_small at 1.5 D0 was +1.2 %
 inline constexpr double kPlanDepthOnePercent = 2.0;  // silo_small at 2 D0: +0.4 %
+// Fine regions side by side over one coarse level (one per outlet): at least this deep, rounded up to whole cells
+// (config::kSiblingTopAboveOrifice has the evidence).
+inline constexpr double kPlanDepthSiblings = 2.0;
 inline constexpr double kPlanCellDiameters = 3.6;    // the paper's 2 cm cells over 5.6 mm coarse particles
 
 struct PlanOptions {
