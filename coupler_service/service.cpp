@@ -198,6 +198,7 @@ void Service::handle(const bus::Incoming& in) {
                               env.stats().interval(), k_));
     p.stats = env.stats();
     p.has_stats = true;
+    p.stats_at = now();
     return;
   }
   refuse(in.peer, fmt::format("{} sent {}, which the coupler does not accept", bus::peer_name(in.peer),
@@ -233,6 +234,9 @@ void Service::write_final(const std::string& status) const {
   j["intervals"] = k_;
   j["interval_s"] = coupler_.config().interval;
   j["coupler_busy_seconds"] = busy_;
+  // The wait of a level between its statistics and its commands, in parts: the other levels' statistics
+  // (per level) and the coupler's response; the rest is the bus (this coupler's run only, not a resumed one's).
+  j["coupler_response_seconds"] = response_;
   j["refused_messages"] = refused_;
   j["dropped_peers"] = nlohmann::json::array();
   for (const auto& p : dropped_) j["dropped_peers"].push_back(bus::peer_name(p));
@@ -243,7 +247,8 @@ void Service::write_final(const std::string& status) const {
   for (const auto& p : peers_)
     j["levels"].push_back({{"name", p.identity}, {"bytes_from_level", p.bytes_in}, {"bytes_to_level", p.bytes_out},
                            {"bytes_per_interval_from_level", static_cast<double>(p.bytes_in) / run_intervals},
-                           {"bytes_per_interval_to_level", static_cast<double>(p.bytes_out) / run_intervals}});
+                           {"bytes_per_interval_to_level", static_cast<double>(p.bytes_out) / run_intervals},
+                           {"waited_for_other_levels_seconds", p.waited_others}});
   j["regions"] = nlohmann::json::array();
   for (size_t r = 0; r < coupler_.config().regions.size(); ++r) {
     const auto& geo = coupler_.geometry(r);
@@ -392,6 +397,11 @@ int Service::loop() {
         if (checkpoint) write_checkpoint(stats, cmds);
         for (auto& p : peers_) p.has_stats = false;
         send_commands(std::move(cmds));
+        const double sent = now();
+        double last = 0.0;
+        for (const auto& p : peers_) last = std::max(last, p.stats_at);
+        for (auto& p : peers_) p.waited_others += last - p.stats_at;
+        response_ += sent - last;
         if (!checkpoint) write_logs(k);
         write_progress(stats, k);
         busy_ += now() - b0;

@@ -78,6 +78,8 @@ class Service {
     double psteps = 0.0, pwall = 0.0;  // particle-steps and wall seconds since the last progress file
     double rate = 0.0;                 // particle-steps per wall second, as last reported
     uint64_t bytes_in = 0, bytes_out = 0;  // bus payload from / to it since this coupler started
+    double stats_at = 0.0;      // wall time its statistics of the running interval arrived
+    double waited_others = 0.0; // seconds its statistics waited for the other levels' (since this coupler started)
   };
   int loop();
   // Fails the run (true) when interval k_ can never complete: a level finished early or went silent.
@@ -122,6 +124,7 @@ class Service {
   std::set<std::string> dropped_;             // peers whose messages are ignored (they do not read)
   uint64_t ignored_ = 0;                      // messages of dropped peers
   double busy_ = 0.0;       // wall seconds spent computing commands and logs
+  double response_ = 0.0;   // wall seconds from the last level's statistics to the commands sent (since this coupler started)
   bool started_ = false;
   bool checkpoint_due_ = false;  // the commands of k_ asked for a checkpoint
   bool stopping_ = false;        // the commands of k_ told every level to stop (requested stop)

@@ -161,6 +161,17 @@ void check_overhead(const fs::path& dir, const nlohmann::json& s, double launche
   EXPECT_EQ(parts["pacing_level"], "fine");
   EXPECT_LT(wait[1], wait[0]) << "the coarse level waited less than the fine one";
   EXPECT_NEAR(parts["pacing_level_wait_share"].get<double>(), wait[1] / wall, 1e-12);
+  // The coupler's clock splits that wait: its statistics waiting for the coarse level's, then the coupler's
+  // response. Both lie inside the wait the fine level measured itself (the bus adds the rest), and the coarse
+  // level, done first, waited longer for the fine one's statistics than the other way round.
+  const auto cpl = read_json(dir / "coupling" / "summary.json");
+  double others[2] = {0.0, 0.0};
+  for (const auto& l : cpl["levels"]) others[l["name"] == "fine"] = l["waited_for_other_levels_seconds"].get<double>();
+  const double response = cpl["coupler_response_seconds"].get<double>();
+  EXPECT_GT(response, 0.0);
+  EXPECT_LT(others[1] + response, wait[1]) << "the coupler counted more than the fine level waited";
+  EXPECT_GT(others[0], others[1]);
+  EXPECT_NEAR(parts["coupler_response_share"].get<double>(), response / wall, 1e-12);
   std::printf("coupling overhead %.1f %% = (%.3g s level work + %.3g s coupler) / %.3g s wall (launcher %.3g s)\n",
               100.0 * share, work, busy, wall, launcher_seconds);
 }
