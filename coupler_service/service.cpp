@@ -398,12 +398,12 @@ int Service::loop() {
         for (auto& p : peers_) p.has_stats = false;
         send_commands(std::move(cmds));
         const double sent = now();
-        double last = 0.0;
-        for (const auto& p : peers_) last = std::max(last, p.stats_at);
-        for (auto& p : peers_) p.waited_others += last - p.stats_at;
-        response_ += sent - last;
+        double arrived = 0.0;  // the last level's statistics
+        for (const auto& p : peers_) arrived = std::max(arrived, p.stats_at);
+        for (auto& p : peers_) p.waited_others += arrived - p.stats_at;
+        response_ += sent - arrived;
         if (!checkpoint) write_logs(k);
-        write_progress(stats, k);
+        write_progress(stats, k, k_ + 1 >= opt_.max_intervals || stopping_);  // always where the run ends
         busy_ += now() - b0;
       } catch (const std::exception& e) {
         fail(e.what());

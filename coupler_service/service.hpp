@@ -107,7 +107,9 @@ class Service {
   void write_checkpoint(const std::vector<bus::IntervalStats>& stats, const std::vector<bus::IntervalCommands>& next);
   void resume_logs();  // keeps the rows of region<r>.csv before the resumed interval
   // coupling/progress.json (service_progress.cpp): per level simulated time, particles, particle-steps/s; ETA.
-  void write_progress(const std::vector<bus::IntervalStats>& stats, uint64_t k);
+  // At most once per wall second, and always for the run's last interval (the end time's, or `last`: a stop
+  // sent), so that `mlcg ps` of a finished run shows where it ended.
+  void write_progress(const std::vector<bus::IntervalStats>& stats, uint64_t k, bool last);
   bool all(bool Peer::*flag) const;
   std::string names(const std::function<bool(const Peer&)>& pick) const;  // 'a', 'b'
 

@@ -1,5 +1,7 @@
 // coupling/progress.json: what `mlcg ps` and the launcher's progress line show
 // of a running hierarchy, written (atomically) at most once per wall second.
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -14,7 +16,7 @@ double wall_now() {
 }
 }  // namespace
 
-void Service::write_progress(const std::vector<bus::IntervalStats>& stats, uint64_t k) {
+void Service::write_progress(const std::vector<bus::IntervalStats>& stats, uint64_t k, bool last) {
   if (opt_.out_dir.empty()) return;
   const auto& cfg = coupler_.config();
   const double t = wall_now(), sim = static_cast<double>(k + 1) * cfg.interval;
@@ -26,7 +28,9 @@ void Service::write_progress(const std::vector<bus::IntervalStats>& stats, uint6
     peers_[l].psteps += static_cast<double>(stats[l].particles()) * static_cast<double>(whole_steps(cfg.interval, cfg.levels[l].dt));
     peers_[l].pwall += stats[l].wall_seconds();
   }
-  if (t - progress_wall_ < 1.0) return;
+  // The levels stop at the first interval boundary at or after the end time (Level::coupling_reached).
+  const bool ends = opt_.end_time >= 0.0 && static_cast<double>(k + 1) >= std::ceil(opt_.end_time / cfg.interval - 1e-6);
+  if (t - progress_wall_ < 1.0 && !last && !ends) return;
   progress_wall_ = t;
   nlohmann::json j;
   j["interval"] = k;

@@ -371,6 +371,12 @@ TEST(MlcgRecovery, KilledFineLevelIsRestartedFromTheLastCheckpointAndTheRunCompl
   EXPECT_EQ(s["status"], "completed");
   EXPECT_EQ(s["attempts"], 2);
   check_region(dir, s, 0, "fine");
+  // `mlcg ps` of the finished run shows where it ended, not the last once-a-second progress, and no ETA.
+  const auto pr = read_json(dir / "coupling" / "progress.json");
+  EXPECT_NEAR(pr["sim_time"].get<double>(), pr["end_time"].get<double>(), 1e-9) << pr.dump();
+  ASSERT_EQ(run(kBin + "/mlcg ps " + dir.string() + " > " + dir.string() + ".ps 2>&1"), 0);
+  ps = slurp(dir.string() + ".ps");
+  EXPECT_EQ(ps.find("ETA"), std::string::npos) << ps;
   fs::remove_all(dir);
   for (const auto& f : {dir.string() + ".out", dir.string() + ".ps", cfile.string()}) fs::remove(f);
 }

@@ -123,8 +123,11 @@ int print_ps(const fs::path& run_dir) {
     for (const auto& l : pr.value("levels", nlohmann::json::array()))
       std::printf("%-16s %12.4f %10d %14.3g\n", l.value("name", "?").c_str(), l.value("sim_time", 0.0),
                   l.value("particles", 0), l.value("particle_steps_per_second", 0.0));
-    std::printf("interval %llu, t = %.4f of %.4g s, ETA %s\n", pr.value("interval", 0ULL), pr.value("sim_time", 0.0),
-                pr.value("end_time", -1.0), duration(pr.value("eta_seconds", -1.0)).c_str());
+    std::printf("interval %llu, t = %.4f of %.4g s", pr.value("interval", 0ULL), pr.value("sim_time", 0.0),
+                pr.value("end_time", -1.0));
+    // An ETA only while the run goes on: a finished or failed run's last progress is where it ended.
+    if (running) std::printf(", ETA %s", duration(pr.value("eta_seconds", -1.0)).c_str());
+    std::printf("\n");
   }
   if (j.contains("checkpoint"))
     std::printf("last consistent checkpoint: interval %d, t = %.4f s\n", j["checkpoint"].value("interval", 0),
