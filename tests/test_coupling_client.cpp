@@ -446,6 +446,61 @@ bus::Register registration() {
 
 }  // namespace
 
+TEST(GridLink, WhatFollowsTheStatisticsCountsIntoTheNextOnesAndSurvivesACheckpoint) {
+  // [coupling] lead: a level builds its statistics before the interval ends. The crossings and removals of the
+  // steps after finish() belong to the next statistics; a checkpoint at the interval's end carries them
+  // (pending / set_pending), and a link restored from them reports what the uninterrupted one does.
+  const auto grid = make_grid({0, 0, 0}, 0.01, 2, 1, 2, {1e-3, 2e-3, 3e-3});
+  GridLink coarse(0, grid, Role::Coarse);
+  Particles p;
+  add(p, {0.005, 0.005, 0.0205}, 1.5e-3, {0.1, 0, -1.0});  // A: through face 0 before the statistics
+  add(p, {0.015, 0.005, 0.0230}, 2.5e-3, {0, 0, -1.0});    // B: through face 1 after them
+  coarse.refresh(p, 0.01);
+  const double dt = 1e-3;
+  drift(p, dt);
+  coarse.after_drift(p);
+  const bus::GridStats first = coarse.finish(p, Comm{}, 3e-3);
+  ASSERT_EQ(first.face_mass_size(), 2);
+  EXPECT_DOUBLE_EQ(first.face_mass(0), p.mass[0]);
+  EXPECT_EQ(first.face_mass(1), 0.0);
+  for (int s = 0; s < 4; ++s) {  // the interval's last steps: B crosses
+    drift(p, dt);
+    coarse.after_drift(p);
+  }
+  GridLink restored(0, grid, Role::Coarse);
+  restored.set_pending(coarse.pending());
+  EXPECT_DOUBLE_EQ(restored.pending_mass(), p.mass[1]);
+  EXPECT_THROW(restored.set_pending(std::vector<double>(3, 0.0)), std::invalid_argument);
+  const bus::GridStats next = coarse.finish(p, Comm{}, 3e-3), again = restored.finish(p, Comm{}, 3e-3);
+  EXPECT_EQ(next.face_mass(0), 0.0) << "A counted once";
+  EXPECT_DOUBLE_EQ(next.face_mass(1), p.mass[1]);
+  EXPECT_DOUBLE_EQ(next.face_momentum(5), -p.mass[1]);
+  EXPECT_EQ(next.face_histogram(3), 1);  // face 1, bin 1 (2.5 mm)
+  EXPECT_EQ(again.SerializeAsString(), next.SerializeAsString());
+
+  // Fine role: a removal after the statistics is returned to its face in the next ones, through a checkpoint too.
+  auto fg = make_grid({0, 0, 0}, 0.01, 2, 2, 2);
+  fg.set_insert_depth(0.004);
+  GridLink fine(0, fg, Role::Fine), fine_restored(0, fg, Role::Fine);
+  Particles q;
+  add(q, {0.005, 0.005, 0.019}, 1e-3, {0.0, 0.2, -0.5});  // in the insertion slab, moving
+  fine.begin_interval(nullptr, q, Comm{}, 0, 0.0);
+  // Sent 2 ms before the interval's end: the occupant is where its velocity takes it by then.
+  const bus::GridStats sent = fine.finish(q, Comm{}, 1e-3, 0.002);
+  ASSERT_EQ(sent.occupants_size(), 4);
+  EXPECT_DOUBLE_EQ(sent.occupants(1), 0.005 + 0.2 * 0.002);
+  EXPECT_DOUBLE_EQ(sent.occupants(2), 0.019 - 0.5 * 0.002);
+  fine.count_removed({0.005, 0.005, 0.0201}, 0.25);
+  fine_restored.set_pending(fine.pending());
+  const bus::GridStats f1 = fine.finish(q, Comm{}, 1e-3), f2 = fine_restored.finish(q, Comm{}, 1e-3);
+  const int f0 = fine.geometry().face_column({0.005, 0.005, 0.0});
+  EXPECT_DOUBLE_EQ(f1.face_returned_mass(f0), 0.25);
+  EXPECT_EQ(f1.removed(), 1u);
+  EXPECT_EQ(f2.face_returned_mass(f0), f1.face_returned_mass(f0));
+  EXPECT_EQ(f2.removed(), 1u);
+  EXPECT_EQ(f2.removed_mass(), f1.removed_mass());
+}
+
 TEST(CouplingClient, ScriptedCouplerRunsThreeIntervals) {
   const std::string ep = endpoint("run");
   const IpcCleanup cleanup{ep};

@@ -344,6 +344,35 @@ TEST(MlcgRecovery, InterruptThenResumeGivesTheUninterruptedResult) {
   }
 }
 
+TEST(MlcgRecovery, StatisticsSentEarlyHandMassOverExactlyAndResumeToTheUninterruptedResult) {
+  // [coupling] lead = 0.5: every level builds its statistics half an interval early and counts the rest of the
+  // interval into the next ones. Nothing may fall between: the per-face totals against what the fine level
+  // received, and a checkpoint at an interval's end must carry those last steps' crossings and removals, or the
+  // resumed run parts from the uninterrupted one.
+  const fs::path cfile = mlcg::test::copy_case(kSrc + "/cases/quickstart/mlcg.toml", fresh_temp_path("lead_case"),
+                                               {{"[coupling]", "[coupling]\nlead = 0.5"}});
+  const fs::path ref = run_hierarchy_case(cfile.string(), "lead_ref");
+  const auto s = read_json(ref / "summary.json");
+  EXPECT_EQ(s["status"], "completed");
+  check_region(ref, s, 0, "fine");
+  const std::string log = slurp(ref / "levels" / "fine" / "log.txt");
+  EXPECT_NE(log.find("16 steps, 2 cell samples per interval, statistics after step 8"), std::string::npos) << log;
+  // The occupants are sent where they will be at the interval's end, so the insertion still overlaps nothing.
+  const auto fine = read_json(ref / "levels" / "fine" / "summary.json")["levels"][0]["coupling"];
+  EXPECT_LT(fine["largest_insert_overlap_of_diameter"].get<double>(), 1e-3) << fine.dump();
+
+  const fs::path dir = fresh_temp_path("lead_int");
+  const pid_t pid = start_mlcg({"run", cfile.string(), "--out", dir.string(), "--quiet"}, dir.string() + ".out");
+  ASSERT_TRUE(wait_for_checkpoint(dir, 300, pid)) << slurp(dir.string() + ".out");
+  kill(pid, SIGTERM);
+  EXPECT_EQ(wait_exit(pid), 130) << slurp(dir.string() + ".out");
+  EXPECT_LT(read_json(dir / "summary.json")["simulated_time"].get<double>(), 0.59) << "the run was cut short";
+  expect_resume_completes_as(dir, ref);
+  EXPECT_EQ(slurp(dir / "levels" / "fine" / "series.csv"), slurp(ref / "levels" / "fine" / "series.csv"));
+  for (const auto& d : {ref, dir}) remove_run(d);
+  mlcg::test::remove_case_copy(cfile);
+}
+
 TEST(MlcgRecovery, KilledFineLevelIsRestartedFromTheLastCheckpointAndTheRunCompletes) {
   const fs::path cfile = case_with("[launcher]\nrestart_on_failure = 2", "restart");
   const fs::path dir = fresh_temp_path("kill");

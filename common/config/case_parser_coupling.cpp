@@ -161,6 +161,7 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
                "; give a timeout in s of wall time above the heartbeat");
 
   c.checkpoint_every = d.value<double>("checkpoint_every");
+  c.lead = d.value<double>("lead");
 
   const auto tables = array_of_tables(*t, "regions");
   if (tables.empty())

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace mlcg::coupling {
 
@@ -79,15 +80,47 @@ void GridLink::begin_interval(const bus::GridCommands* c, const Particles& p, co
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(where + e.what());
   }
-  flux_.reset();
   want_occupants_ = c == nullptr || c->want_occupants();
   inserted_ = inserted;
   inserted_mass_ = inserted_mass;
-  removed_ = removed_mass_ = 0.0;
-  returned_.assign(geo_.faces(), 0.0);
 }
 
-bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_max) {
+std::vector<double> GridLink::pending() const {
+  std::vector<double> v(flux_.mass.begin(), flux_.mass.end());
+  v.insert(v.end(), flux_.momentum.begin(), flux_.momentum.end());
+  v.insert(v.end(), flux_.moment.begin(), flux_.moment.end());
+  for (const int64_t h : flux_.histogram) v.push_back(static_cast<double>(h));  // counts far below 2^53
+  v.push_back(removed_);
+  v.push_back(removed_mass_);
+  v.insert(v.end(), returned_.begin(), returned_.end());
+  return v;
+}
+
+double GridLink::pending_mass() const {
+  double m = removed_mass_;
+  for (const double f : flux_.mass) m += std::abs(f);
+  return m;
+}
+
+void GridLink::set_pending(const std::vector<double>& v) {
+  const size_t nf = flux_.faces(), want = 7 * nf + flux_.histogram.size() + 2 + returned_.size();
+  if (v.size() != want)
+    throw std::invalid_argument("grid " + std::to_string(index_) + ": " + std::to_string(v.size()) +
+                                " pending sums, the grid has " + std::to_string(want));
+  auto at = v.begin();
+  const auto take = [&](auto& out) {
+    for (auto& x : out) x = static_cast<std::remove_reference_t<decltype(x)>>(*at++);
+  };
+  take(flux_.mass);
+  take(flux_.momentum);
+  take(flux_.moment);
+  take(flux_.histogram);
+  removed_ = *at++;
+  removed_mass_ = *at++;
+  returned_.assign(at, v.end());
+}
+
+bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_max, double ahead) {
   bus::GridStats g;
   g.set_grid(index_);
   if (role_ == Role::Coarse) {
@@ -118,7 +151,7 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
     std::vector<char> buf;
     ByteWriter w(buf);
     for (size_t i = 0; i < p.n_local(); ++i) {
-      const Vec3& x = p.x[i];
+      const Vec3 x = ahead > 0.0 ? p.x[i] + p.v[i] * ahead : p.x[i];
       const bool below_top = !(x.z < zlo || x.z > zhi || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y);
       if (!below_top && !(!geo_.open_sides().empty() && near_open_side(x))) continue;
       const double q[4] = {x.x, x.y, x.z, p.radius[i]};
@@ -154,6 +187,9 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
     g.set_removed(static_cast<uint64_t>(std::llround(removed[0])));
     g.set_removed_mass(removed[1]);
   }
+  flux_.reset();
+  removed_ = removed_mass_ = 0.0;
+  returned_.assign(geo_.faces(), 0.0);
   return g;
 }
 

@@ -44,9 +44,8 @@ class GridLink {
                                                  int64_t first_id);
 
   // Collective. Start of an interval, after the insertion (its count and mass):
-  // takes the commands (null = none: no forces), takes the controller's weight
-  // sums, zeroes the interval's sums. Throws std::invalid_argument on commands
-  // that do not fit the grid.
+  // takes the commands (null = none: no forces) and the controller's weight
+  // sums. Throws std::invalid_argument on commands that do not fit the grid.
   void begin_interval(const bus::GridCommands* c, const Particles& p, const Comm& comm, uint64_t inserted,
                       double inserted_mass);
   // After a neighbour-list rebuild (band: the skin; until the next rebuild no particle moves half of it).
@@ -72,9 +71,18 @@ class GridLink {
   void sample(const Particles& p, const std::vector<double>& stress6, const Comm& comm) {
     cells_.sample(p, stress6, comm, box_list());
   }
-  // Collective: the interval's statistics (the same on every rank). r_max: the
-  // level's largest radius (the occupant slab reaches that far beyond the insertion slab).
-  bus::GridStats finish(const Particles& p, const Comm& comm, double r_max);
+  // Collective: the interval's statistics (the same on every rank), and the sums start again from zero: what
+  // happens between finish() and the interval's end (a level that sends early) counts into the next one.
+  // r_max: the level's largest radius (the occupant slab reaches that far beyond the insertion slab). ahead:
+  // the simulated time from now to the interval's end; the occupants are sent where their velocity takes them
+  // by then, for the insertion at the next interval's start.
+  bus::GridStats finish(const Particles& p, const Comm& comm, double r_max, double ahead = 0.0);
+  // This rank's sums since the last finish() (crossings, removals, returned mass), for a checkpoint at an
+  // interval's end, and their restoration; set_pending throws std::invalid_argument on a size that does not fit.
+  std::vector<double> pending() const;
+  void set_pending(const std::vector<double>& v);
+  // The mass those sums carry, this rank's: crossed both ways (coarse role) and removed (fine role) [kg].
+  double pending_mass() const;
 
   const FaceFlux& flux() const { return flux_; }
   const ControllerForces& forces() const { return forces_; }

@@ -200,15 +200,20 @@ void Level::write_checkpoint(const std::filesystem::path& path) const {
   for (const auto& pr : scene_.probes) open_mass.push_back(pr.open_mass());
   std::vector<char> om(reinterpret_cast<const char*>(open_mass.data()),
                        reinterpret_cast<const char*>(open_mass.data() + open_mass.size()));
+  const std::vector<double> pending = coupling_pending();  // empty when uncoupled
+  std::vector<char> pb(reinterpret_cast<const char*>(pending.data()),
+                       reinterpret_cast<const char*>(pending.data() + pending.size()));
   const auto all = comm_.gather0(buf);
   const auto all_open = comm_.gather0(om);
+  const auto all_pending = comm_.gather0(pb);
   const CouplingReport coupling = coupling_report();  // collective; zeros when uncoupled
-  if (comm_.rank() == 0) rank0_output([&] { write_checkpoint_file(path, all, all_open, coupling); });
+  if (comm_.rank() == 0) rank0_output([&] { write_checkpoint_file(path, all, all_open, all_pending, coupling); });
   sync_output();
 }
 
 void Level::write_checkpoint_file(const std::filesystem::path& path, const std::vector<char>& all,
-                                  const std::vector<char>& all_open, const CouplingReport& coupling) const {
+                                  const std::vector<char>& all_open, const std::vector<char>& all_pending,
+                                  const CouplingReport& coupling) const {
   io::H5Writer w(path);
   w.set_attr("/", "format", "mlcg-level-checkpoint");
   w.set_attr("/", "version", kCheckpointVersion);
@@ -249,6 +254,12 @@ void Level::write_checkpoint_file(const std::filesystem::path& path, const std::
   std::vector<double> opens(all_open.size() / sizeof(double));
   if (!opens.empty()) std::memcpy(opens.data(), all_open.data(), all_open.size());
   w.write("probes/open_mass_per_rank", opens);
+  // A level that sends its statistics early ([coupling] lead) has counted the interval's last steps into the
+  // next statistics: each rank's sums, to be restored on the same rank.
+  std::vector<double> pending(all_pending.size() / sizeof(double));
+  if (!pending.empty()) std::memcpy(pending.data(), all_pending.data(), all_pending.size());
+  w.write("coupling/pending_per_rank", pending);
+  w.write("coupling/pending_ranks", std::vector<int32_t>{comm_.size()});
 
   write_scene_state(w);
   w.commit();
@@ -334,6 +345,7 @@ void Level::load_checkpoint(const std::filesystem::path& path) {
   const SceneMap map = check_scene(r);
   run_ = run;
   coupling_restored_ = cr;
+  restore_coupling_pending(r);
   load_particles(r, map);
   restore_scene_state(r, map);
   stepper_.rebuild_pending = true;
@@ -454,6 +466,25 @@ void Level::restore_scene_state(const io::H5Reader& r, const SceneMap& map) {
     } else {
       line.push_back(static_cast<char>(c));
     }
+  }
+}
+
+void Level::restore_coupling_pending(const io::H5Reader& r) {
+  coupling_pending_restored_.clear();
+  if (!r.has("coupling/pending_per_rank")) return;  // written before [coupling] lead: nothing pending
+  const auto all = r.read<double>("coupling/pending_per_rank");
+  const auto ranks = r.read<int32_t>("coupling/pending_ranks");
+  if (all.empty() || ranks.size() != 1 || ranks[0] < 1 || all.size() % static_cast<size_t>(ranks[0]) != 0) return;
+  const size_t writers = static_cast<size_t>(ranks[0]), n = all.size() / writers;
+  // This rank's own sums if the rank count is the same, else all of them on rank 0 (as the probes' open samples).
+  if (writers == static_cast<size_t>(comm_.size())) {
+    const auto from = all.begin() + static_cast<std::ptrdiff_t>(static_cast<size_t>(comm_.rank()) * n);
+    coupling_pending_restored_.assign(from, from + static_cast<std::ptrdiff_t>(n));
+  } else {
+    coupling_pending_restored_.assign(n, 0.0);
+    if (comm_.rank() == 0)
+      for (size_t q = 0; q < writers; ++q)
+        for (size_t j = 0; j < n; ++j) coupling_pending_restored_[j] += all[q * n + j];
   }
 }
 

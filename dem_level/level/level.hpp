@@ -31,6 +31,7 @@ namespace spdlog { class logger; }
 
 namespace mlcg {
 namespace io { class H5Reader; class H5Writer; }
+namespace bus { class IntervalStats; }
 struct SceneMap;
 namespace bus { class CouplingGeometry; }
 
@@ -215,7 +216,9 @@ class Level {
   // The final outputs and log lines of run(); after a failed output only the summary is tried.
   void finish_run(RunStatus status, const std::string& reason, bool output_failed);
   void write_checkpoint_file(const std::filesystem::path& path, const std::vector<char>& particles,
-                             const std::vector<char>& open_mass, const CouplingReport& coupling) const;
+                             const std::vector<char>& open_mass, const std::vector<char>& coupling_pending,
+                             const CouplingReport& coupling) const;
+  void restore_coupling_pending(const io::H5Reader& r);
   void write_scene_state(io::H5Writer& w) const;  // walls, insertions, probes, grids, events, series, scene
   // Output written on rank 0 that can fail (a full disk): the first failure is kept, and every
   // rank throws OutputStop with it at the next sync_output() (collective).
@@ -234,7 +237,9 @@ class Level {
   void coupling_born(size_t i);         // particle i was just inserted by the level itself
   bool coupling_wants_stress() const;   // this step's forces feed a cell sample
   void coupling_forces();               // controller forces
-  void coupling_end_step();             // cell samples; at an interval end the statistics
+  void coupling_end_step();             // cell samples; the statistics (at the interval's end or `lead` before)
+  bus::IntervalStats coupling_stats();  // collective: the statistics of the running interval
+  std::vector<double> coupling_pending() const;  // every grid's sums since the last statistics, this rank's
   bool coupling_removes(size_t i);      // rebuild: particle i left a fine region (counted)
   void check_inserted_walls(Coupled& c, const bus::CouplingGeometry& geo, size_t first);  // particles [first, n)
   void coupling_refresh();              // rebuild: crossing candidates
@@ -256,6 +261,7 @@ class Level {
   RunState run_;                    // what a checkpoint carries besides the particles and the scene
   int64_t case_placed_ = 0;         // the case's own: [[particles]] and [initial] on this level
   CouplingReport coupling_restored_;  // a coupled level's counters from its checkpoint (inserted, worst overlap)
+  std::vector<double> coupling_pending_restored_;  // this rank's sums counted after the last statistics sent
   bool interrupted_ = false;
   int64_t steps_this_process_ = 0;
   bool kick_owed_ = false;          // see step()

@@ -36,7 +36,10 @@ struct Level::Coupled {
   std::vector<coupling::GridLink> grids;
   uint64_t steps = 1;         // steps per interval
   double interval = 0.0;      // the coupler's, the same double on every level
-  uint64_t sample_every = 1;  // steps between cell samples
+  uint64_t send_at = 1;       // the step of the interval after which the statistics are built ([coupling] lead)
+  uint64_t sample_every = 1;  // steps between cell samples (up to send_at)
+  bus::IntervalStats held;    // built, not yet sent (a checkpoint at the interval's end comes first)
+  bool built = false, sent = false;
   uint64_t k = 0;             // the interval being run
   uint64_t done = 0;          // its steps done
   bool stop = false, checkpoint = false, finished = false;
@@ -127,7 +130,9 @@ void Level::connect_coupler() {
     throw std::runtime_error(fmt::format("level '{}': the coupler starts at interval {}, this level at {}", lvl_.name,
                                          w.start_interval(), start));
   c->interval = w.coupling_interval();
-  c->sample_every = std::max<uint64_t>(1, c->steps / kSamplesPerInterval);
+  const double lead = cs_.coupling ? cs_.coupling->lead : 0.0;
+  c->send_at = c->steps - std::min<uint64_t>(c->steps - 1, static_cast<uint64_t>(std::floor(lead * static_cast<double>(c->steps))));
+  c->sample_every = std::max<uint64_t>(1, c->send_at / kSamplesPerInterval);
   c->k = start;
   c->inserted = coupling_restored_.inserted;  // the run before the checkpoint's, so the report covers the whole run
   c->worst_overlap = coupling_restored_.worst_insert_overlap;
@@ -137,6 +142,23 @@ void Level::connect_coupler() {
     c->grids = coupling::links_of(w);
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(fmt::format("level '{}': the coupler's {}", lvl_.name, e.what()));
+  }
+  if (!coupling_pending_restored_.empty()) {  // the sums the checkpoint's interval counted after its statistics
+    size_t at = 0;
+    for (auto& link : c->grids) {
+      const size_t n = link.pending().size();
+      if (at + n > coupling_pending_restored_.size()) break;
+      link.set_pending({coupling_pending_restored_.begin() + static_cast<std::ptrdiff_t>(at),
+                        coupling_pending_restored_.begin() + static_cast<std::ptrdiff_t>(at + n)});
+      at += n;
+    }
+    if (at != coupling_pending_restored_.size())
+      throw std::runtime_error(fmt::format("level '{}': the checkpoint holds {} pending coupling sums, the coupler's "
+                                           "grids {}", lvl_.name, coupling_pending_restored_.size(), at));
+    double m = 0.0;
+    for (const auto& link : c->grids) m += link.pending_mass();
+    log_->info("coupling: carried over from the checkpoint what the interval's last steps counted after its "
+               "statistics: {:.6g} kg crossed or removed", comm_.sum(m));
   }
   for (const auto& link : c->grids) {
     const auto& geo = link.geometry();
@@ -149,8 +171,9 @@ void Level::connect_coupler() {
   if (c->grids.empty()) log_->warn("level '{}' takes part in none of the coupler's {} grids", lvl_.name, w.grids_size());
   c->material = cs_.insertions.empty() ? 0 : physics_.mt.index_of(cs_.insertions.front().material);
   c->density = physics_.mt.material(c->material).density;
-  log_->info("coupled as level {} of {}: interval {} s = {} steps, {} cell samples per interval", w.level_index(),
-             w.level_count(), w.coupling_interval(), c->steps, (c->steps + c->sample_every - 1) / c->sample_every);
+  log_->info("coupled as level {} of {}: interval {} s = {} steps, {} cell samples per interval, statistics after "
+             "step {}", w.level_index(), w.level_count(), w.coupling_interval(), c->steps,
+             (c->send_at + c->sample_every - 1) / c->sample_every, c->send_at);
   coupled_.reset(c.release());
   stepper_.rebuild_pending = true;  // the crossing candidates start at a rebuild
 }
@@ -264,7 +287,7 @@ void Level::coupling_born(size_t i) {
 bool Level::coupling_wants_stress() const {
   const Coupled& c = *coupled_;
   const uint64_t j = c.done + 1;  // this step's number within the interval
-  return !c.grids.empty() && (j % c.sample_every == 0 || j == c.steps);
+  return !c.grids.empty() && j <= c.send_at && (j % c.sample_every == 0 || j == c.send_at);
 }
 
 void Level::coupling_forces() {
@@ -317,32 +340,64 @@ void Level::coupling_end_step() {
     PhaseTimer t(out_.times.coupling);
     for (auto& g : c.grids) g.sample(state_.p, state_.stress6, comm_);
   }
+  // The checkpoint at an interval's end before the statistics go: they tell the coupler it is on disk (its
+  // consistent set). Statistics built early ([coupling] lead) wait for it; otherwise they go once built.
+  const bool checkpoint = c.checkpoint && !opt_.out_dir.empty();
+  if (c.done == c.send_at && c.done < c.steps) {
+    c.held = coupling_stats();
+    c.built = true;
+    if (!checkpoint) {
+      PhaseTimer t(out_.times.coupling);
+      c.client->send_stats(c.held);
+      c.sent = true;
+    }
+  }
   if (c.done < c.steps) {
     c.client->keepalive(time(), run_.step);
     return;
   }
-  bus::IntervalStats s;
-  // The checkpoint first: the statistics tell the coupler it is on disk (its consistent set).
-  if (c.checkpoint && !opt_.out_dir.empty()) {
+  // Built before the checkpoint, which then holds only what the statistics do not (coupling_pending).
+  if (!c.built) c.held = coupling_stats();
+  std::string path;
+  if (checkpoint) {
     PhaseTimer t(out_.times.output);
-    const auto path = c.checkpoint_path.empty() ? opt_.out_dir / "checkpoint.h5" : std::filesystem::path(c.checkpoint_path);
+    path = c.checkpoint_path.empty() ? (opt_.out_dir / "checkpoint.h5").string() : c.checkpoint_path;
     c.inserts.flush();  // the rows the checkpoint covers are on disk before it is
     write_checkpoint(path);
-    s.set_checkpoint(path.string());
     stepper_.rebuild_pending = true;  // as a restarted run will
   }
-  {
+  if (!c.sent) {
     PhaseTimer t(out_.times.coupling);
-    s.set_interval(c.k);
-    s.set_sim_time(time());
-    for (auto& g : c.grids) *s.add_grids() = g.finish(state_.p, comm_, stepper_.r_max);
-    s.set_particles(static_cast<uint64_t>(comm_.sum(static_cast<int64_t>(state_.p.n_local()))));
-    s.set_wall_seconds(wall_seconds() - c.wall0);
-    c.client->send_stats(s);
+    if (checkpoint) c.held.set_checkpoint(path);
+    c.client->send_stats(c.held);
   }
+  c.built = c.sent = false;
   ++c.k;
   c.done = 0;
   c.finished = c.stop;
+}
+
+bus::IntervalStats Level::coupling_stats() {
+  Coupled& c = *coupled_;
+  PhaseTimer t(out_.times.coupling);
+  bus::IntervalStats s;
+  s.set_interval(c.k);
+  s.set_sim_time(time());
+  const double ahead = static_cast<double>(c.steps - c.done) * physics_.dt;  // to the interval's end
+  for (auto& g : c.grids) *s.add_grids() = g.finish(state_.p, comm_, stepper_.r_max, ahead);
+  s.set_particles(static_cast<uint64_t>(comm_.sum(static_cast<int64_t>(state_.p.n_local()))));
+  s.set_wall_seconds(wall_seconds() - c.wall0);
+  return s;
+}
+
+std::vector<double> Level::coupling_pending() const {
+  std::vector<double> v;
+  if (!coupled_) return v;
+  for (const auto& g : coupled_->grids) {
+    const auto p = g.pending();
+    v.insert(v.end(), p.begin(), p.end());
+  }
+  return v;
 }
 
 void Level::coupling_bye(RunStatus status, const std::string& reason) {

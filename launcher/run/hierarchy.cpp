@@ -126,18 +126,22 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Ou
   s["coupling"]["level_coupling_seconds_max"] = work;
   s["coupling"]["level_wait_seconds_max"] = wait;
   if (!pace.empty() && wall > 0.0) {
-    // The pacing level's wait in parts: the other levels, the coupler's response, and the rest (the bus).
-    double others = 0.0;
-    for (const auto& l : cpl.value("levels", nlohmann::json::array()))
-      if (l.value("name", "") == pace) others = l.value("waited_for_other_levels_seconds", 0.0);
-    const double response = cpl.value("coupler_response_seconds", 0.0);
-    s["coupling"]["overhead_parts"] = {{"level_coupling_share", work / wall},
-                                       {"coupler_busy_share", busy / wall},
-                                       {"pacing_level", pace},
-                                       {"pacing_level_wait_share", pace_wait / wall},
-                                       {"pacing_level_waited_for_levels_share", others / wall},
-                                       {"coupler_response_share", response / wall},
-                                       {"bus_share", std::max(0.0, pace_wait - others - response) / wall}};
+    auto& parts = s["coupling"]["overhead_parts"];
+    parts = {{"level_coupling_share", work / wall},
+             {"coupler_busy_share", busy / wall},
+             {"pacing_level", pace},
+             {"pacing_level_wait_share", pace_wait / wall}};
+    // The pacing level's wait in parts: the other levels, the coupler's response, and the rest (the bus). With
+    // statistics sent early ([coupling] lead) the coupler answers while the level still steps: no such parts.
+    if (cs.coupling && cs.coupling->lead == 0.0) {
+      double others = 0.0;
+      for (const auto& l : cpl.value("levels", nlohmann::json::array()))
+        if (l.value("name", "") == pace) others = l.value("waited_for_other_levels_seconds", 0.0);
+      const double response = cpl.value("coupler_response_seconds", 0.0);
+      parts["pacing_level_waited_for_levels_share"] = others / wall;
+      parts["coupler_response_share"] = response / wall;
+      parts["bus_share"] = std::max(0.0, pace_wait - others - response) / wall;
+    }
   }
   io::write_file_atomic(run_dir / "summary.json", s.dump(2) + "\n");
 }
@@ -256,12 +260,14 @@ void print_end(const fs::path& run_dir, const Outcome& r) {
   if (s.contains("coupling") && s["coupling"].contains("overhead_parts")) {
     const auto& o = s["coupling"]["overhead_parts"];
     std::printf("coupling cost: levels' coupling work %.1f %% and coupler %.1f %% of wall time; level %s, which sets "
-                "the pace, waited %.1f %% of it for the coupler's commands (other levels %.1f %%, the coupler's "
-                "response %.1f %%, the bus %.1f %%)\n",
+                "the pace, waited %.1f %% of it for the coupler's commands",
                 100.0 * o.value("level_coupling_share", 0.0), 100.0 * o.value("coupler_busy_share", 0.0),
-                o.value("pacing_level", "?").c_str(), 100.0 * o.value("pacing_level_wait_share", 0.0),
-                100.0 * o.value("pacing_level_waited_for_levels_share", 0.0),
-                100.0 * o.value("coupler_response_share", 0.0), 100.0 * o.value("bus_share", 0.0));
+                o.value("pacing_level", "?").c_str(), 100.0 * o.value("pacing_level_wait_share", 0.0));
+    if (o.contains("bus_share"))
+      std::printf(" (other levels %.1f %%, the coupler's response %.1f %%, the bus %.1f %%)",
+                  100.0 * o.value("pacing_level_waited_for_levels_share", 0.0),
+                  100.0 * o.value("coupler_response_share", 0.0), 100.0 * o.value("bus_share", 0.0));
+    std::printf("\n");
   }
   for (const auto& p : s["probes"])
     std::printf("probe %s (level %s%s): %s\n", p.value("name", "?").c_str(), p.value("level", "?").c_str(),
