@@ -277,6 +277,21 @@ TEST(CaseParserErrors, KeyOfAnotherWallType) {
                "allowed keys for a plane wall");
 }
 
+TEST(CaseParserErrors, WallMotionThatCannotBe) {
+  // A plane slides along itself (a belt), a surface of revolution turns about its axis (a drum); nothing else.
+  const auto with = [](const std::string& after, const std::string& key_line) {
+    return Edit{after, after + "\n" + key_line, key_line};
+  };
+  expect_error(with("normal = [0, 0, 1]", "angular_velocity = 1.0"), "walls[3].angular_velocity",
+               "a plane has no axis of its own to turn about; give surface_velocity");
+  expect_error(with("normal = [0, 0, 1]", "surface_velocity = [0.3, 0, 0.1]"), "walls[3].surface_velocity",
+               "0.1 m/s along the plane's normal; a belt moves in its own plane");
+  expect_error(with("top = 0.5", "surface_velocity = [0.1, 0, 0]"), "walls[0].surface_velocity",
+               "a cylinder moves by turning about its axis: give angular_velocity");
+  expect_error(with("offset = [0, 0, 0.1]", "angular_velocity = 2.0"), "walls[4].angular_velocity",
+               "a mesh cannot turn yet");
+}
+
 TEST(CaseParserErrors, WrongTypeStringForNumber) {
   expect_error("radius = 0.05", "radius = \"0.05\"", "walls[0].radius", "expected a number, found string");
 }

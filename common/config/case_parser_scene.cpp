@@ -64,6 +64,34 @@ void check_inside_domain(const Table& t, std::string_view k_lo, std::string_view
 
 // ---- [[walls]] --------------------------------------------------------------
 
+namespace {
+
+// A wall's surface motion: a plane or mesh slides along itself (a belt), a surface of revolution turns about
+// its own axis (a drum); either way the geometry stays where it is. A mesh's velocity is checked against its
+// triangles when it is read (scene/walls_from_case.cpp).
+void read_wall_motion(const Table& t, WallSpec& w) {
+  w.surface_velocity = t.value<Vec3>("surface_velocity");
+  w.angular_velocity = t.value<double>("angular_velocity");
+  const bool flat = w.type == WallType::Plane || w.type == WallType::Mesh;
+  t.check("angular_velocity", flat ? w.angular_velocity == 0.0 : true,
+          w.type == WallType::Plane
+              ? "a plane has no axis of its own to turn about; give surface_velocity for a belt"
+              : "a mesh cannot turn yet: only a cylinder, cone or disk turns about its axis (a drum); give "
+                "surface_velocity for a belt");
+  t.check("surface_velocity", flat || w.surface_velocity == Vec3{},
+          "a " + std::string(w.type == WallType::Cylinder ? "cylinder" : w.type == WallType::Cone ? "cone" : "disk") +
+              " moves by turning about its axis: give angular_velocity in rad/s instead");
+  if (w.type == WallType::Plane) {
+    const Vec3 n = w.normal / norm(w.normal);
+    const double along = dot(w.surface_velocity, n);
+    t.check("surface_velocity", std::abs(along) <= 1e-9 * norm(w.surface_velocity),
+            "has " + num(along) + " m/s along the plane's normal; a belt moves in its own plane (give a velocity "
+            "at right angles to normal)");
+  }
+}
+
+}  // namespace
+
 void read_walls(const Table& root, CaseSpec& spec, Names& names) {
   const std::vector<std::string> types = schema::choices(schema::at(schema::kWall, "type"));
   static const schema::Keys of_type[] = {schema::kPlane, schema::kCylinder, schema::kCone, schema::kDisk,
@@ -125,6 +153,7 @@ void read_walls(const Table& root, CaseSpec& spec, Names& names) {
         break;
       }
     }
+    read_wall_motion(t, w);
     w.loc = t.loc();
     spec.walls.push_back(w);
   }

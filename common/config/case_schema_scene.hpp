@@ -13,6 +13,11 @@ inline constexpr KeySpec kWall[] = {
     {"type", "string", "*required*", "`\"plane\"`, `\"cylinder\"`, `\"cone\"`, `\"disk\"`, `\"mesh\"`",
      "the wall's type"},
     {"material", "string", "*required*", "a `[[materials]]` name", "the name of a [[materials]] entry"},
+    // The geometry stays in place; only what a particle touching the surface feels moves.
+    {"surface_velocity", "vector", "`[0, 0, 0]`", "plane, mesh: along the surface",
+     "the velocity of the wall's surface in m/s, the geometry staying in place (a conveyor belt)"},
+    {"angular_velocity", "number", "`0`", "cylinder, cone, disk",
+     "the rate the wall turns about its own axis in rad/s, right-handed about axis (a drum)", kAny, "rad/s"},
 };
 
 inline constexpr KeySpec kPlane[] = {

@@ -89,6 +89,11 @@ struct WallSpec {                  // [[walls]]
   std::string file;                // file: STL (ASCII or binary), relative to the case file's folder
   double scale = 1.0;              // scale > 0 applied to the file's coordinates, then
   Vec3 offset;                     // offset added
+  // The surface's motion, the geometry staying in place: a belt (plane, mesh: a velocity along the surface)
+  // or a drum (cylinder, cone, disk: turning about its own axis, right-handed, rad/s).
+  Vec3 surface_velocity;           // surface_velocity [m/s]
+  double angular_velocity = 0.0;   // angular_velocity [rad/s]
+  bool moving() const { return angular_velocity != 0.0 || !(surface_velocity == Vec3{}); }
   SourceLoc loc;
   bool operator==(const WallSpec&) const = default;
 };

@@ -1,7 +1,10 @@
 #include "scene/walls_from_case.hpp"
 
+#include <cmath>
 #include <filesystem>
 #include <memory>
+#include <stdexcept>
+#include <string>
 
 #include "walls/stl_reader.hpp"
 #include "walls/triangle_mesh.hpp"
@@ -49,16 +52,38 @@ AnalyticWall make_analytic(const config::WallSpec& w) {
   return a;
 }
 
+// A belt mesh slides along itself: its velocity must lie in every triangle's plane, or the surface would move
+// through itself (the geometry stays in place).
+void check_belt_mesh(const config::WallSpec& w, size_t index, const TriangleMesh& m) {
+  const double u = norm(w.surface_velocity);
+  for (size_t t = 0; t < m.triangles(); ++t) {
+    const double along = dot(w.surface_velocity, m.normal(static_cast<int32_t>(t)));
+    if (std::abs(along) > 1e-6 * u)
+      throw std::runtime_error(w.loc.str() + ": walls[" + std::to_string(index) + "].surface_velocity: has " +
+                               std::to_string(along) + " m/s along the normal of triangle " + std::to_string(t) +
+                               " of " + w.file + "; a mesh moves as a belt only along every one of its triangles "
+                               "(a flat belt): split the belt's flat part into its own mesh");
+  }
+}
+
 }  // namespace
 
 WallSet walls_from_case(const config::CaseSpec& cs, const MaterialTable& mt) {
   WallSet walls;
+  const auto set_motion = [&](int k, const config::WallSpec& w) {
+    if (w.moving()) walls.set_motion(static_cast<size_t>(k), w.surface_velocity, unit(w.axis) * w.angular_velocity, w.center);
+  };
   for (const auto& w : cs.walls) {
     if (w.type == config::WallType::Mesh) continue;
-    walls.add_analytic(w.name, mt.index_of(w.material), make_analytic(w));
+    set_motion(walls.add_analytic(w.name, mt.index_of(w.material), make_analytic(w)), w);
   }
-  for (const auto& w : cs.walls)
-    if (w.type == config::WallType::Mesh) walls.add_mesh(w.name, mt.index_of(w.material), mesh_from_case(cs, w));
+  for (size_t i = 0; i < cs.walls.size(); ++i) {
+    const auto& w = cs.walls[i];
+    if (w.type != config::WallType::Mesh) continue;
+    auto mesh = mesh_from_case(cs, w);
+    if (w.moving()) check_belt_mesh(w, i, *mesh);
+    set_motion(walls.add_mesh(w.name, mt.index_of(w.material), std::move(mesh)), w);
+  }
   return walls;
 }
 

@@ -33,6 +33,14 @@ int WallSet::add_mesh(const std::string& name, int material, std::shared_ptr<con
   return static_cast<int>(info_.size()) - 1;
 }
 
+void WallSet::set_motion(size_t w, const Vec3& u, const Vec3& spin, const Vec3& center) {
+  Info& in = info_[w];
+  in.surface_velocity = u;
+  in.spin = spin;
+  in.spin_center = center;
+  in.moving = !(u == Vec3{}) || !(spin == Vec3{});
+}
+
 int WallSet::find(const std::string& name) const {
   for (size_t w = 0; w < info_.size(); ++w)
     if (info_[w].name == name) return static_cast<int>(w);

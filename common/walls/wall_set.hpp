@@ -34,6 +34,11 @@ class WallSet {
     bool is_mesh = false;
     int32_t prim_begin = 0, prim_end = 0;  // primitive id range
     int mesh = -1;                         // index into meshes() when is_mesh
+    // The surface's motion, the geometry in place: a velocity along it, or a turn about an axis.
+    bool moving = false;
+    Vec3 surface_velocity;
+    Vec3 spin;         // angular velocity [rad/s] about the axis through spin_center
+    Vec3 spin_center;
   };
 
   int add_analytic(const std::string& name, int material, const AnalyticWall& w);
@@ -43,6 +48,14 @@ class WallSet {
   const Info& info(size_t w) const { return info_[w]; }
   int find(const std::string& name) const;  // -1 if absent
   void set_active(size_t w, bool on) { info_[w].active = on; }
+  // Wall w's surface slides at velocity u and turns at spin (rad/s, a vector along the axis) about the axis
+  // through center; all zero: at rest.
+  void set_motion(size_t w, const Vec3& u, const Vec3& spin, const Vec3& center);
+  // The velocity of wall w's surface at a point on it (zero for a wall at rest).
+  Vec3 velocity_at(size_t w, const Vec3& point) const {
+    const Info& in = info_[w];
+    return in.surface_velocity + cross(in.spin, point - in.spin_center);
+  }
   bool active(size_t w) const { return info_[w].active; }
 
   int32_t analytic_count() const { return static_cast<int32_t>(analytic_.size()); }

@@ -14,6 +14,7 @@ struct ContactStats {
   int32_t worst_particle = -1;
   int64_t pair_contacts = 0;
   int64_t wall_contacts = 0;
+  double wall_power = 0.0;  // sum of F . v_wall over the contacts with moving walls [W]: the work they put in
 };
 
 // Symmetric part of branch (x) force, added into s[0..5] as xx yy zz xy xz yz.

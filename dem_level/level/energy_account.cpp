@@ -36,18 +36,19 @@ void EnergyAccount::controller_work(const Particles& p, double dt) {
 
 void EnergyAccount::sample(uint64_t step, double t, const EnergyParts& e, const Comm& comm) {
   next_ = step + every_;
-  double flows[3] = {work_, in_, out_};
-  comm.sum_in_place(flows, 3);
-  work_ = in_ = out_ = 0.0;
+  double flows[4] = {work_, in_, out_, walls_};
+  comm.sum_in_place(flows, 4);
+  work_ = in_ = out_ = walls_ = 0.0;
   if (tot_.samples == 0) {
     tot_.start = e.total();  // what flowed during the first step is inside E(t0)
   } else {
     tot_.controller_work += flows[0];
     tot_.inserted += flows[1];
     tot_.removed += flows[2];
+    tot_.wall_work += flows[3];
   }
   ++tot_.samples;
-  const double gain = e.total() - tot_.start - tot_.controller_work - tot_.inserted + tot_.removed;
+  const double gain = e.total() - tot_.start - tot_.controller_work - tot_.wall_work - tot_.inserted + tot_.removed;
   if (gain > tot_.max_gain) {
     tot_.max_gain = gain;
     tot_.max_gain_time = t;
@@ -59,13 +60,13 @@ void EnergyAccount::sample(uint64_t step, double t, const EnergyParts& e, const 
   }
   tot_.in_motion = std::max(tot_.in_motion, e.kinetic + e.rotational + e.elastic);
   tot_.end_gain = gain;
-  rows_.push_back(fmt::format("{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}", t, e.kinetic,
+  rows_.push_back(fmt::format("{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}", t, e.kinetic,
                               e.rotational, e.potential, e.elastic, tot_.controller_work, tot_.inserted, tot_.removed,
-                              gain));
+                              gain, tot_.wall_work));
 }
 
 std::string EnergyAccount::csv() const {
-  std::string s = "t,kinetic_J,rotational_J,potential_J,elastic_J,controller_work_J,inserted_J,removed_J,gain_J\n";
+  std::string s = "t,kinetic_J,rotational_J,potential_J,elastic_J,controller_work_J,inserted_J,removed_J,gain_J,wall_work_J\n";
   for (const auto& r : rows_) s += r + "\n";
   return s;
 }

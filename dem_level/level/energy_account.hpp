@@ -3,7 +3,7 @@
 // mechanical energy E = kinetic + rotational + potential + elastic did, against
 // what crossed its borders, so that a gain the physics cannot explain shows:
 //
-//   gain(t) = E(t) - E(t0) - W_controller - E_inserted + E_removed
+//   gain(t) = E(t) - E(t0) - W_controller - W_walls - E_inserted + E_removed
 //
 // measured, not assumed. t0 is the first sample (the end of this process's first
 // step). W_controller is the coupler's forces' work, sum F_c . v dt with v the
@@ -13,7 +13,8 @@
 // it held at the last step boundary when it is removed (removal comes after the
 // drift: that state is taken back from the half step with gravity as the force of
 // the step before, exact for a particle in free flight; a contact force on it costs
-// that force x its half-step displacement). The elastic
+// that force x its half-step displacement). W_walls is what moving walls (a belt, a drum) put in: the sum
+// of each contact's force on the particle times the wall surface's velocity there, times dt. The elastic
 // energy of an overlap an insertion creates is not carried in: it shows as gain,
 // which is what an insertion into a dense stream must be checked for. Damping,
 // friction and a removed wall only lower the account; an instability raises it.
@@ -38,6 +39,7 @@ struct EnergyTotals {        // the account over this process's run, summed over
   uint64_t samples = 0;
   double start = 0.0;        // E(t0)
   double controller_work = 0.0, inserted = 0.0, removed = 0.0;
+  double wall_work = 0.0;    // by moving walls
   double max_gain = 0.0;     // largest gain(t) over the samples (>= 0: t0 has gain 0)
   double max_gain_time = 0.0;
   // Largest rise of gain(t) over any earlier sample: what a damped run's losses cannot hide
@@ -61,6 +63,8 @@ class EnergyAccount {
   void after_controller(const Particles& p);
   // After the second half kick: the controller forces' work over this step.
   void controller_work(const Particles& p, double dt);
+  // After the forces: the moving walls' work over this step (their contacts' power, ContactStats::wall_power).
+  void wall_work(double power, double dt) { walls_ += power * dt; }
 
   bool due(uint64_t step) const { return step >= next_; }
   // Collective: one row of the account at step `step` (time t) from the level's energy now.
@@ -74,7 +78,7 @@ class EnergyAccount {
   uint64_t every_, next_ = 0;
   Vec3 g_;
   double dt_;
-  double in_ = 0.0, out_ = 0.0, work_ = 0.0;  // this rank's, since the last sample
+  double in_ = 0.0, out_ = 0.0, work_ = 0.0, walls_ = 0.0;  // this rank's, since the last sample
   std::vector<Vec3> f_;                       // controller forces of this step (local particles)
   bool have_controller_ = false;
   EnergyTotals tot_;

@@ -348,6 +348,7 @@ void Level::step(bool may_owe) {
     }
   }
   const auto& st = stepper_.fctx.stats;
+  if (account_) account_->wall_work(st.wall_power, physics_.dt);
   std::string problem;
   if (st.max_overlap_ratio > cs_.stability.max_overlap_fraction)
     problem = fmt::format("overlap of {:.1f} % of the radius (limit [stability] max_overlap_fraction = {:.0f} %) at "

@@ -332,6 +332,7 @@ nlohmann::json energy_summary(const EnergyTotals& e) {
           {"controller_work_J", e.controller_work},
           {"inserted_J", e.inserted},
           {"removed_J", e.removed},
+          {"wall_work_J", e.wall_work},
           {"max_gain_J", e.max_gain},
           {"max_gain_time", e.max_gain_time},
           {"max_rise_J", e.max_rise},
