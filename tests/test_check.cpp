@@ -160,6 +160,25 @@ TEST(Check, RefusesWhatTheTimeStepGuardRefusesWithTheLevelsMessage) {
   fs::remove_all(runs);
 }
 
+// A moving wall strikes particles at its surface's speed: the impact the contact checks size for includes it,
+// and a belt too fast for the material is refused before step 1 naming the wall.
+TEST(Check, AFastBeltIsRefusedBeforeStep1NamingTheWall) {
+  const fs::path bad = edited_case("cases/collision/belt.toml",
+                                   {{"max_impact_speed = 1.0\n", ""},
+                                    {"surface_velocity = [0.5, 0.0, 0.0]", "surface_velocity = [20.0, 0.0, 0.0]"}},
+                                   "check_belt");
+  EXPECT_EQ(run("MLCG_NO_CALIBRATE=1 " + kBin + "/mlcg check " + bad.string() + " > " + bad.string() + ".out 2> " +
+                bad.string() + ".err"),
+            2);
+  const std::string err = slurp(bad.string() + ".err");
+  EXPECT_NE(err.find("levels[fine].dt: impacts at 21.1 m/s (estimated from insertion speed, free fall and the surface "
+                     "of wall 'belt')"),
+            std::string::npos)
+      << err;
+  for (const char* ext : {".out", ".err"}) fs::remove(bad.string() + ext);
+  fs::remove(bad);
+}
+
 // Every level of a hierarchy whose guard refuses is named, with the message that level gives under `mlcg run`
 // (where the first level to refuse ends the run, so which others get to speak is a race).
 TEST(Check, NamesEveryLevelOfAHierarchyWhoseGuardRefuses) {

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -54,16 +56,40 @@ std::vector<ParticleKind> merge_kinds(const std::vector<ParticleKind>& kinds) {
 
 namespace {
 
-// Impact speed: given, or the fastest insertion speed plus a free fall over the domain; raised to what the
-// initial overlaps can throw a particle at.
+// The fastest surface of a moving wall (a belt's speed, a drum's rim speed) and its wall's name.
+std::pair<double, std::string> fastest_wall_surface(const config::CaseSpec& cs) {
+  std::pair<double, std::string> out{0.0, ""};
+  for (const auto& w : cs.walls) {
+    const double rim = std::max({w.radius, w.radius_bottom, w.radius_top});
+    const double v = norm(w.surface_velocity) + std::abs(w.angular_velocity) * rim;
+    if (v > out.first) out = {v, w.name};
+  }
+  return out;
+}
+
+// Impact speed: given, or the fastest insertion speed plus a free fall over the domain plus the fastest moving
+// wall's surface speed; raised to what the initial overlaps can throw a particle at.
 void find_impact_speed(StabilityReport& r, const config::CaseSpec& cs, const std::vector<ParticleKind>& kinds,
                        double gravity_height, const InitialOverlap& overlaps) {
+  const auto [wall_speed, wall] = fastest_wall_surface(cs);
   if (cs.stability.max_impact_speed >= 0.0) {
     r.impact_speed = cs.stability.max_impact_speed;
+    if (wall_speed > r.impact_speed)
+      r.lines.push_back(fmt::format("stability: warning: wall '{}' moves its surface at {:.3g} m/s, faster than "
+                                    "[stability] max_impact_speed = {:.3g} m/s: a particle it strikes is not covered "
+                                    "by the contact checks below",
+                                    wall, wall_speed, r.impact_speed));
   } else {
     const double g = std::sqrt(norm2(cs.gravity));
     for (const auto& k : kinds)
       r.impact_speed = std::max(r.impact_speed, std::sqrt(k.speed * k.speed + 2.0 * g * gravity_height));
+    if (wall_speed > 0.0) {
+      r.impact_speed += wall_speed;
+      r.impact_wall = wall;
+      r.lines.push_back(fmt::format("stability: wall '{}' moves its surface at up to {:.3g} m/s: added to the impact "
+                                    "speed",
+                                    wall, wall_speed));
+    }
     r.impact_speed_estimated = true;
   }
   if (overlaps.speed > r.impact_speed) {
@@ -137,8 +163,11 @@ void enforce_limits(StabilityReport& r, const config::StabilitySpec& st, double 
         where, r.impact_speed,
         r.impact_speed_from_overlaps  ? " (the speed the initial overlaps can give a particle; separate the placed "
                                         "particles)"
-        : r.impact_speed_estimated ? " (estimated from insertion speed and free fall)"
-                                   : "",
+        : r.impact_speed_estimated
+            ? (r.impact_wall.empty() ? std::string(" (estimated from insertion speed and free fall)")
+                                     : " (estimated from insertion speed, free fall and the surface of wall '" +
+                                           r.impact_wall + "')")
+            : std::string(),
         100.0 * r.overlap_ratio, 100.0 * st.max_overlap_fraction));
 }
 

@@ -50,6 +50,7 @@ struct StabilityReport {
   double impact_speed = 0.0;       // used for the Hertz estimates
   bool impact_speed_estimated = false;
   bool impact_speed_from_overlaps = false;  // the initial overlaps can throw particles faster
+  std::string impact_wall;         // the moving wall whose surface speed the estimate includes, if any
   double contact_time = 0.0;       // shortest Hertz contact at impact_speed
   double steps_per_contact = 0.0;
   double overlap_ratio = 0.0;      // largest Hertz overlap / radius at impact_speed
