@@ -175,6 +175,22 @@ void print_outlets(const config::CaseSpec& cs, const config::OutletScan& scan) {
   for (const auto& n : scan.notes) std::printf("  not an outlet: %s\n", n.c_str());
 }
 
+// The walls whose surfaces move (belts, drums), with the speed a particle touching them meets.
+void print_moving_walls(const config::CaseSpec& cs) {
+  for (const auto& w : cs.walls) {
+    if (!w.moving()) continue;
+    if (w.angular_velocity != 0.0) {
+      const double rim = std::max({w.radius, w.radius_bottom, w.radius_top});
+      std::printf("wall '%s' turns at %g rad/s about %s through %s (its surface at %.3g m/s at radius %g m)\n",
+                  w.name.c_str(), w.angular_velocity, config::vec_text(w.axis / norm(w.axis)).c_str(),
+                  config::vec_text(w.center).c_str(), std::abs(w.angular_velocity) * rim, rim);
+    } else {
+      std::printf("wall '%s' moves its surface at %s m/s (%.3g m/s), the geometry in place\n", w.name.c_str(),
+                  config::vec_text(w.surface_velocity).c_str(), norm(w.surface_velocity));
+    }
+  }
+}
+
 // Which level each probe is read from: the finest level whose region holds it (config/regions.hpp).
 void print_probes(const config::CaseSpec& cs) {
   if (!cs.coupling) return;
@@ -321,6 +337,7 @@ int check_case(const CheckOptions& o) {
     for (size_t i = 0; i < cs.bases.size(); ++i)  // base = ..., nearest first
       std::printf("  %s %s\n", i == 0 ? "a variant of" : "  itself a variant of", cs.bases[i].c_str());
     print_outlets(cs, p.outlets);
+    print_moving_walls(cs);
     const auto regions = print_regions(cs, &p.regions);
     print_probes(cs);
     double fill_alpha = 1.0;
