@@ -3,6 +3,7 @@
 // structs and never sees a TOML node. Specs compare equal when every value
 // and every SourceLoc is equal (tests compare a variant with a full file). Every field is documented, with its TOML
 // key, in cases/README.md. Lengths in m, times in s (simulated), angles none.
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -94,6 +95,8 @@ struct WallSpec {                  // [[walls]]
   Vec3 surface_velocity;           // surface_velocity [m/s]
   double angular_velocity = 0.0;   // angular_velocity [rad/s]
   bool moving() const { return angular_velocity != 0.0 || !(surface_velocity == Vec3{}); }
+  // The largest radius of a surface of revolution (0 for a plane or mesh): where a turning wall is fastest.
+  double outer_radius() const { return std::max({radius, radius_bottom, radius_top}); }
   SourceLoc loc;
   bool operator==(const WallSpec&) const = default;
 };

@@ -60,8 +60,7 @@ namespace {
 std::pair<double, std::string> fastest_wall_surface(const config::CaseSpec& cs) {
   std::pair<double, std::string> out{0.0, ""};
   for (const auto& w : cs.walls) {
-    const double rim = std::max({w.radius, w.radius_bottom, w.radius_top});
-    const double v = norm(w.surface_velocity) + std::abs(w.angular_velocity) * rim;
+    const double v = norm(w.surface_velocity) + std::abs(w.angular_velocity) * w.outer_radius();
     if (v > out.first) out = {v, w.name};
   }
   return out;

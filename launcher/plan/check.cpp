@@ -180,7 +180,7 @@ void print_moving_walls(const config::CaseSpec& cs) {
   for (const auto& w : cs.walls) {
     if (!w.moving()) continue;
     if (w.angular_velocity != 0.0) {
-      const double rim = std::max({w.radius, w.radius_bottom, w.radius_top});
+      const double rim = w.outer_radius();
       std::printf("wall '%s' turns at %g rad/s about %s through %s (its surface at %.3g m/s at radius %g m)\n",
                   w.name.c_str(), w.angular_velocity, config::vec_text(w.axis / norm(w.axis)).c_str(),
                   config::vec_text(w.center).c_str(), std::abs(w.angular_velocity) * rim, rim);
