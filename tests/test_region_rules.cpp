@@ -118,6 +118,25 @@ TEST(RegionRules, NoOrificeSkipsTheOrificeRulesWithANote) {
   EXPECT_TRUE(has(r.notes, "give [orifice]"));
 }
 
+TEST(RegionRules, ARegionInADrumWithNoOutletIsRefusedNamingTheMovingWall) {
+  // The bulk of a drum circulates through a region's lower faces, which the coupling does not hand over.
+  const std::string path = kSrc + "/cases/drum/mlcg_rules_test.toml";  // never written: the base resolves beside it
+  const std::string text = "base = \"reference.toml\"\n[[levels]]\nname = \"coarse\"\nalpha = 2.0\ndt = 1e-5\n"
+                           "[[levels]]\nname = \"fine\"\nalpha = 1.0\ndt = 5e-6\n[coupling]\n[[coupling.regions]]\n"
+                           "coarse = \"coarse\"\nfine = \"fine\"\nmin = [-0.04, -0.0125, -0.02]\n"
+                           "max = [0.04, 0.0125, 0.01]\ncell_size = 0.016\n";
+  CaseSpec cs = parse_case(text, path);
+  auto r = rules(cs);
+  ASSERT_EQ(r.errors.size(), 1u) << all(r.errors);
+  EXPECT_TRUE(has(r.errors, path + ":" + std::to_string(line_of(text, "min = ")) +
+                                ": coupling.regions[0].min: the scene has no outlet and wall 'drum' moves"))
+      << all(r.errors);
+  for (auto& w : cs.walls) w.angular_velocity = 0.0;  // the same closed drum at rest: a note, as before
+  r = rules(cs);
+  EXPECT_TRUE(r.errors.empty()) << all(r.errors);
+  EXPECT_TRUE(has(r.notes, "no outlet found"));
+}
+
 // ---- across the outlet ----------------------------------------------------------------
 
 // offcentre_bin: a 3 cm hole at x = 2 cm in the floor of a bin of radius 4.5 cm; its region reaches 0.5 D0

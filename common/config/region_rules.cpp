@@ -306,6 +306,21 @@ double largest_radius(const CaseSpec& cs) {
   return r;
 }
 
+// A drum or a belt with no outlet: the bulk circulates through the region's lower faces, which the coupling
+// does not hand over (a fine particle leaving downward is neither removed nor handed back; a coarse one
+// entering from below is not counted), so the fine level would fill with particles that left its region.
+void check_closed_moving(const Check& c, const CaseSpec& cs, const OutletScan& scan, RegionRuleReport& out) {
+  if (!scan.outlets.empty()) return;
+  const auto w = std::find_if(cs.walls.begin(), cs.walls.end(), [](const WallSpec& x) { return x.moving(); });
+  if (w == cs.walls.end()) return;
+  out.errors.push_back(fmt::format(
+      "{}: the scene has no outlet and wall '{}' moves (a drum or a belt), so the flow circulates through the "
+      "region's lower faces, which the coupling does not hand over: fine particles leaving downward would stay on "
+      "the fine level and coarse ones entering from below would not be counted; MLCG here is for flow through an "
+      "outlet, a region along a flowing layer is not supported yet (run the scene on one level)",
+      c.at("min"), w->name));
+}
+
 RegionRuleReport check_region_rules(const CaseSpec& cs, const OutletScan& scan, const WallCrossing& crosses) {
   RegionRuleReport out;
   if (!cs.coupling) return out;
@@ -327,6 +342,7 @@ RegionRuleReport check_region_rules(const CaseSpec& cs, const OutletScan& scan, 
                   fmt::format("level '{}': alpha {:g} x the largest insertion diameter {:g} mm = {:g} mm", r.coarse,
                               alpha, 2e3 * r_max, 1e3 * d)};
     check_cells(c, out);
+    check_closed_moving(c, cs, scan, out);
     const long over_coarse = std::count_if(cs.coupling->regions.begin(), cs.coupling->regions.end(),
                                            [&](const CouplingRegionSpec& q) { return q.coarse == r.coarse; });
     const RegionBox box = region_box(r);

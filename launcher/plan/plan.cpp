@@ -360,8 +360,14 @@ int plan_case(const PlanOptions& o) {
       throw PlanError(o.case_file + " has " + std::to_string(cs.levels.size()) +
                       " levels; mlcg plan takes a single-level case (the fully resolved reference)");
     const auto scan = find_outlets(cs);
-    if (scan.outlets.empty())
-      throw PlanError(o.case_file + ": no outlet found in its walls; give [orifice] or [[orifices]] (cases/README.md)");
+    if (scan.outlets.empty()) {
+      const bool moving = std::any_of(cs.walls.begin(), cs.walls.end(), [](const auto& w) { return w.moving(); });
+      // A drum or a belt without an outlet: the fine region would follow a flowing layer, which is not planned.
+      throw PlanError(o.case_file + ": no outlet found in its walls; " +
+                      (moving ? "mlcg plan places fine regions around outlets, and a scene whose flow leaves through "
+                                "none (a drum's flowing layer, the shear zone over a belt) cannot be planned yet"
+                              : "give [orifice] or [[orifices]] for an opening the walls do not show (cases/README.md)"));
+    }
     const Plan p = make_plan(cs, scan, o, out);
     print_plan(cs, scan, p);
     const config::CaseSpec v = check_plan(p, out);
