@@ -19,10 +19,10 @@ namespace mlcg {
 
 namespace detail {
 
-// v_wall: the wall surface's velocity at the contact point (zero for a wall at rest).
+// v_wall: the wall surface's velocity at the contact point; null for a wall at rest, which then costs nothing.
 template <class Model, bool Stress>
 inline void wall_contact(size_t i, const Particles& p, const Vec3& point, const Vec3& n, double dist,
-                         const PairCoeffs& c, double dt, const Vec3& v_wall, Vec3& hist, Vec3& fi, Vec3& ti,
+                         const PairCoeffs& c, double dt, const Vec3* v_wall, Vec3& hist, Vec3& fi, Vec3& ti,
                          Vec3& wall_force, double* stress6, ContactStats& st) {
   const double ri = p.radius[i];
   ContactInput in;
@@ -30,14 +30,15 @@ inline void wall_contact(size_t i, const Particles& p, const Vec3& point, const 
   in.delta = ri - dist;
   in.r_eff = ri;
   in.m_eff = p.mass[i];
-  in.v_rel = p.v[i] - ri * cross(p.omega[i], n) - v_wall;
+  in.v_rel = p.v[i] - ri * cross(p.omega[i], n);
+  if (v_wall) in.v_rel -= *v_wall;
   if constexpr (Model::has_rolling) in.w_rel = p.omega[i];
   const ContactForce cf = Model::eval(c, dt, in, hist);
   fi += cf.force;
   ti -= ri * cross(n, cf.ft);
   if constexpr (Model::has_rolling) ti += cf.roll;
   wall_force -= cf.force;
-  st.wall_power += dot(cf.force, v_wall);
+  if (v_wall) st.wall_power += dot(cf.force, *v_wall);
   if (in.delta > st.max_overlap_ratio * ri) {  // divide only for a new largest overlap
     st.max_overlap_ratio = in.delta / ri;
     st.worst_particle = static_cast<int32_t>(i);
@@ -103,8 +104,9 @@ void wall_forces(Particles& p, WallSet& ws, const MaterialTable& mt, double dt, 
         }
         const auto& info = ws.info(static_cast<size_t>(w));
         const Vec3 vw = info.moving ? ws.velocity_at(static_cast<size_t>(w), g.point) : Vec3{};
-        detail::wall_contact<Model, Stress>(i, p, g.point, g.n, g.dist, mt.pair(mi, info.material), dt, vw, h, fi,
-                                            ti, wall_force[static_cast<size_t>(w)], stress6, st);
+        detail::wall_contact<Model, Stress>(i, p, g.point, g.n, g.dist, mt.pair(mi, info.material), dt,
+                                            info.moving ? &vw : nullptr, h, fi, ti, wall_force[static_cast<size_t>(w)],
+                                            stress6, st);
         continue;
       }
       // A mesh: its candidate triangles for this particle are contiguous.
@@ -125,8 +127,9 @@ void wall_forces(Particles& p, WallSet& ws, const MaterialTable& mt, double dt, 
       for (int q = 0; q < nc; ++q) {
         Vec3& hq = Model::has_history ? ws.hist[static_cast<size_t>(k + mc[q].owner)] : dummy;
         const Vec3 vw = info.moving ? ws.velocity_at(static_cast<size_t>(w), mc[q].point) : Vec3{};
-        detail::wall_contact<Model, Stress>(i, p, mc[q].point, mc[q].normal, mc[q].dist, c, dt, vw, hq, fi, ti,
-                                            wall_force[static_cast<size_t>(w)], stress6, st);
+        detail::wall_contact<Model, Stress>(i, p, mc[q].point, mc[q].normal, mc[q].dist, c, dt,
+                                            info.moving ? &vw : nullptr, hq, fi, ti, wall_force[static_cast<size_t>(w)],
+                                            stress6, st);
       }
       k = stop - 1;
     }
