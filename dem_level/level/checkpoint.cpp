@@ -177,6 +177,22 @@ void read_scalar(const io::H5Reader& r, const std::string& obj, const Scalar& f)
       },
       f.value);
 }
+// Per-rank values written by `writers` ranks in rank order (n each): this rank's own n if the rank count is the
+// same, else all of them summed on rank 0 in rank order and zeros elsewhere (each such value is a sum over the
+// ranks, e.g. a probe's open sample or a grid's pending crossings).
+std::vector<double> rank_share(const std::vector<double>& all, size_t writers, const Comm& comm) {
+  const size_t n = writers == 0 ? 0 : all.size() / writers;
+  if (writers == static_cast<size_t>(comm.size())) {
+    const auto from = all.begin() + static_cast<std::ptrdiff_t>(static_cast<size_t>(comm.rank()) * n);
+    return {from, from + static_cast<std::ptrdiff_t>(n)};
+  }
+  std::vector<double> out(n, 0.0);
+  if (comm.rank() == 0)
+    for (size_t q = 0; q < writers; ++q)
+      for (size_t j = 0; j < n; ++j) out[j] += all[q * n + j];
+  return out;
+}
+
 }  // namespace
 
 void Level::write_checkpoint(const std::filesystem::path& path) const {
@@ -475,23 +491,14 @@ void Level::restore_coupling_pending(const io::H5Reader& r) {
   const auto all = r.read<double>("coupling/pending_per_rank");
   const auto ranks = r.read<int32_t>("coupling/pending_ranks");
   if (all.empty() || ranks.size() != 1 || ranks[0] < 1 || all.size() % static_cast<size_t>(ranks[0]) != 0) return;
-  const size_t writers = static_cast<size_t>(ranks[0]), n = all.size() / writers;
-  // This rank's own sums if the rank count is the same, else all of them on rank 0 (as the probes' open samples).
-  if (writers == static_cast<size_t>(comm_.size())) {
-    const auto from = all.begin() + static_cast<std::ptrdiff_t>(static_cast<size_t>(comm_.rank()) * n);
-    coupling_pending_restored_.assign(from, from + static_cast<std::ptrdiff_t>(n));
-  } else {
-    coupling_pending_restored_.assign(n, 0.0);
-    if (comm_.rank() == 0)
-      for (size_t q = 0; q < writers; ++q)
-        for (size_t j = 0; j < n; ++j) coupling_pending_restored_[j] += all[q * n + j];
-  }
+  coupling_pending_restored_ = rank_share(all, static_cast<size_t>(ranks[0]), comm_);
 }
 
 void Level::restore_probes(const io::H5Reader& r, const SceneMap& map) {
   const auto opens = r.read<double>("probes/open_mass_per_rank");
   const size_t saved = map.saved_probes;
-  const size_t writer_ranks = saved == 0 ? 0 : opens.size() / saved;
+  // This rank's part of each probe's open sample (its own if the rank count is the same, else all on rank 0).
+  const std::vector<double> mine = rank_share(opens, saved == 0 ? 0 : opens.size() / saved, comm_);
   for (size_t k = 0; k < scene_.probes.size(); ++k) {
     auto& pr = scene_.probes[k];
     auto& s = pr.state();
@@ -511,12 +518,7 @@ void Level::restore_probes(const io::H5Reader& r, const SceneMap& map) {
     const auto j = static_cast<size_t>(from);
     const std::string g = fmt::format("probes/{}", j);
     s.sample_start = r.attr_double(g, "sample_start");
-    // This rank's part of the open sample: its own if the rank count is the same, else all on rank 0.
-    s.mass = 0.0;
-    if (writer_ranks == static_cast<size_t>(comm_.size()))
-      s.mass = opens[static_cast<size_t>(comm_.rank()) * saved + j];
-    else if (comm_.rank() == 0)
-      for (size_t q = 0; q < writer_ranks; ++q) s.mass += opens[q * saved + j];
+    s.mass = j < mine.size() ? mine[j] : 0.0;
     s.total_mass = r.attr_double(g, "total_mass");
     pr.params().window_start = r.attr_double(g, "window_start");
     pr.params().window_end = r.attr_double(g, "window_end");
