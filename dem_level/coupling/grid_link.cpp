@@ -103,7 +103,7 @@ double GridLink::pending_mass() const {
 }
 
 void GridLink::set_pending(const std::vector<double>& v) {
-  const size_t nf = flux_.faces(), want = 7 * nf + flux_.histogram.size() + 2 + returned_.size();
+  const size_t want = pending_size();
   if (v.size() != want)
     throw std::invalid_argument("grid " + std::to_string(index_) + ": " + std::to_string(v.size()) +
                                 " pending sums, the grid has " + std::to_string(want));

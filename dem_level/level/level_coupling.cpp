@@ -146,7 +146,7 @@ void Level::connect_coupler() {
   if (!coupling_pending_restored_.empty()) {  // the sums the checkpoint's interval counted after its statistics
     size_t at = 0;
     for (auto& link : c->grids) {
-      const size_t n = link.pending().size();
+      const size_t n = link.pending_size();
       if (at + n > coupling_pending_restored_.size()) break;
       link.set_pending({coupling_pending_restored_.begin() + static_cast<std::ptrdiff_t>(at),
                         coupling_pending_restored_.begin() + static_cast<std::ptrdiff_t>(at + n)});
