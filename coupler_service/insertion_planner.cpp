@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <stdexcept>
 
@@ -132,12 +133,18 @@ std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<
   for (size_t f = 0; f < faces_.size(); ++f) {
     FaceState& s = faces_[f];
     if (!s.seen) continue;
-    std::mt19937_64 rng(mix(prm_.seed ^ mix(interval * 0x100000001b3ULL + f)));
+    // Seeded on first use, not per face and interval: seeding costs more than the rest of a face that places
+    // nothing (most faces, most intervals); the stream of a face's interval is the same either way.
+    std::optional<std::mt19937_64> seeded;
+    const auto rng = [&]() -> std::mt19937_64& {
+      if (!seeded) seeded.emplace(mix(prm_.seed ^ mix(interval * 0x100000001b3ULL + f)));
+      return *seeded;
+    };
     Vec3 slab_lo, slab_hi;
     geo_.face_slab(f, prm_.insert_depth, slab_lo, slab_hi);
     const int axis = geo_.normal_axis(f);
     for (;;) {
-      if (s.next_radius <= 0.0) s.next_radius = draw_radius(s, rng);
+      if (s.next_radius <= 0.0) s.next_radius = draw_radius(s, rng());
       const double r = s.next_radius, m = mass_of(r);
       if (s.remainder < m) break;
       Vec3 lo = slab_lo, hi = slab_hi;  // a whole sphere inside the slab along the normal
@@ -153,7 +160,7 @@ std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<
       bool placed = false;
       const int attempts = s.short_streak > 0 ? prm_.attempts_when_full : prm_.attempts;
       for (int a = 0; a < attempts && !placed; ++a) {
-        const Vec3 x{ux(rng), uy(rng), uz(rng)};
+        const Vec3 x{ux(rng()), uy(rng()), uz(rng())};
         if (hash_.overlaps(x, r) || !fits_(s.anchor, x, r)) continue;
         hash_.add(x, r);
         out.push_back({x, r, s.velocity, static_cast<int>(f)});

@@ -18,15 +18,6 @@ CellGrid::CellGrid(GridParams prm) : prm_(std::move(prm)) {
   st_.momentum.assign(n, Vec3{});
 }
 
-int CellGrid::cell_of(const Vec3& x) const {
-  const Vec3 r = (x - prm_.origin) * (1.0 / prm_.h);
-  const int ix = static_cast<int>(std::floor(r.x));
-  const int iy = static_cast<int>(std::floor(r.y));
-  const int iz = static_cast<int>(std::floor(r.z));
-  if (ix < 0 || iy < 0 || iz < 0 || ix >= prm_.nx || iy >= prm_.ny || iz >= prm_.nz) return -1;
-  return (iz * prm_.ny + iy) * prm_.nx + ix;
-}
-
 void CellGrid::local_sample(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
                             std::vector<double>& max_speed, const std::vector<uint32_t>* only) const {
   const size_t nc = prm_.cells();
@@ -49,8 +40,11 @@ void CellGrid::local_sample(const Particles& p, const std::vector<double>& stres
     add_dyad(s + 6, m * v, v);
     if (!stress6.empty())
       for (size_t k = 0; k < 6; ++k) s[12 + k] += stress6[6 * i + k];
-    max_speed[static_cast<size_t>(c)] = std::max(max_speed[static_cast<size_t>(c)], norm(v));
+    max_speed[static_cast<size_t>(c)] = std::max(max_speed[static_cast<size_t>(c)], norm2(v));
   }
+  // The square root of the largest square is the largest speed to the last bit (sqrt is monotone and
+  // correctly rounded): one root per cell instead of one per particle.
+  for (double& s : max_speed) s = std::sqrt(s);
 }
 
 void CellGrid::add_sample(const std::vector<double>& sums, const std::vector<double>& max_speed) {

@@ -7,6 +7,7 @@
 // with b_ic the branch vector from contact c to the centre of i (r_ij/2 for a
 // particle pair) and v' = v - u; compression is positive. Samples are averaged
 // over an output interval (velocity mass-weighted, max speed as a maximum).
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -38,7 +39,14 @@ class CellGrid {
 
   explicit CellGrid(GridParams prm);
   const GridParams& params() const { return prm_; }
-  int cell_of(const Vec3& x) const;  // -1 outside
+  int cell_of(const Vec3& x) const {  // -1 outside; inline: the per-particle sampling loops call it
+    const Vec3 r = (x - prm_.origin) * (1.0 / prm_.h);
+    const int ix = static_cast<int>(std::floor(r.x));
+    const int iy = static_cast<int>(std::floor(r.y));
+    const int iz = static_cast<int>(std::floor(r.z));
+    if (ix < 0 || iy < 0 || iz < 0 || ix >= prm_.nx || iy >= prm_.ny || iz >= prm_.nz) return -1;
+    return (iz * prm_.ny + iy) * prm_.nx + ix;
+  }
 
   // One sample in two parts so that ranks can sum their parts in between:
   // local_sample() fills `sums` (kSums values per cell, add over ranks) and
