@@ -147,6 +147,14 @@ void check_overhead(const fs::path& dir, const nlohmann::json& s, double launche
     EXPECT_LT(phases, 1.05 * w) << name << ": the timed phases overlap";
     work = std::max(work, l["levels"][0]["performance"]["seconds"]["coupling"].get<double>());
     wall = std::max(wall, w);
+    // The stress kernel runs where cells are sampled: two steps per coupling interval (the coupler counts the
+    // intervals), plus the case's output grid (a sample every 1e-3 s), not on every step.
+    const auto& parts = l["levels"][0]["performance"]["coupling_parts"];
+    const double intervals = read_json(dir / "coupling" / "summary.json")["intervals"].get<double>();
+    const double grid_samples = std::floor(l["simulated_time"].get<double>() / 1e-3) + 1.0;
+    EXPECT_GE(parts["sample_steps"].get<double>(), 2.0 * intervals) << name;
+    EXPECT_LE(parts["sample_steps"].get<double>(), 2.0 * intervals + grid_samples) << name;
+    EXPECT_GT(parts["samples"].get<double>(), 0.0) << name;
   }
   const double busy = read_json(dir / "coupling" / "summary.json")["coupler_busy_seconds"].get<double>();
   EXPECT_GT(work, 0.0);

@@ -253,6 +253,17 @@ void check_rows() {
       EXPECT_EQ(got["level"].get<std::string>(), want.value("level", std::string())) << p << " " << v;
     }
   }
+  // The coupling's cost beside the error: the hierarchy's overhead and its parts, none for the single levels.
+  EXPECT_NE(md.find("## Coupling cost"), std::string::npos);
+  const auto variants = read_json(kDir / "main" / "study.json")["variants"];
+  for (size_t v = 0; v < rows.size(); ++v) {
+    const auto c = variants[v]["coupling_cost"];
+    const auto sc = summary(rows[v].at("run")).value("coupling", nlohmann::json::object());
+    EXPECT_EQ(c.is_null(), !sc.contains("overhead_share")) << rows[v].at("name");
+    if (c.is_null()) continue;
+    EXPECT_DOUBLE_EQ(c["overhead_share"].get<double>(), sc["overhead_share"].get<double>());
+    EXPECT_GT(c["level_coupling_parts"]["samples"].get<double>(), 0.0);
+  }
 }
 
 void check_plots() {

@@ -201,12 +201,12 @@ void Level::coupling_begin_step() {
   } catch (const std::invalid_argument& e) {
     throw CouplingStop(e.what());
   }
-  PhaseTimer t(out_.times.coupling);
   const size_t born_from = state_.p.n_local();  // ghosts are detached before any insertion: local = all
   for (size_t l = 0; l < c.grids.size(); ++l) {
     uint64_t count = 0;
     double mass = 0.0;
     if (c.grids[l].role() == coupling::Role::Fine && of[l] && of[l]->insert_size() > 0) {
+      PhaseTimer t(out_.times.coupling.insert);
       // Every rank reads the same list: the ids agree, each rank keeps what it owns.
       std::vector<ParticleInit> list;
       const int64_t first_id = run_.next_id;
@@ -246,6 +246,7 @@ void Level::coupling_begin_step() {
         stepper_.ghost_cutoff = 2.0 * stepper_.r_max + stepper_.skin;
       }
     }
+    PhaseTimer t(out_.times.coupling.controller);  // the traction's weights
     try {
       c.grids[l].begin_interval(of[l], state_.p, comm_, count, mass);
     } catch (const std::invalid_argument& e) {
@@ -254,6 +255,7 @@ void Level::coupling_begin_step() {
   }
   // A middle level of a hierarchy: what the coupler inserted may lie inside the region this level
   // feeds as the coarse level. It enters that region by birth, counted after the intervals' resets.
+  PhaseTimer t(out_.times.coupling.crossings);
   for (size_t i = born_from; i < state_.p.n_local(); ++i) coupling_born(i);
 }
 
@@ -276,7 +278,7 @@ void Level::check_inserted_walls(Coupled& c, const bus::CouplingGeometry& geo, s
 }
 
 void Level::coupling_after_drift() {
-  PhaseTimer t(out_.times.coupling);
+  PhaseTimer t(out_.times.coupling.crossings);
   for (auto& g : coupled_->grids) g.after_drift(state_.p);
 }
 
@@ -291,7 +293,7 @@ bool Level::coupling_wants_stress() const {
 }
 
 void Level::coupling_forces() {
-  PhaseTimer t(out_.times.coupling);
+  PhaseTimer t(out_.times.coupling.controller);
   for (const auto& g : coupled_->grids) g.add_forces(state_.p);
 }
 
@@ -337,7 +339,7 @@ void Level::coupling_end_step() {
   const bool sample = coupling_wants_stress();
   ++c.done;
   if (sample) {
-    PhaseTimer t(out_.times.coupling);
+    PhaseTimer t(out_.times.coupling.samples);
     for (auto& g : c.grids) g.sample(state_.p, state_.stress6, comm_);
   }
   // The checkpoint at an interval's end before the statistics go: they tell the coupler it is on disk (its
@@ -347,7 +349,7 @@ void Level::coupling_end_step() {
     c.held = coupling_stats();
     c.built = true;
     if (!checkpoint) {
-      PhaseTimer t(out_.times.coupling);
+      PhaseTimer t(out_.times.coupling.send);
       c.client->send_stats(c.held);
       c.sent = true;
     }
@@ -367,7 +369,7 @@ void Level::coupling_end_step() {
     stepper_.rebuild_pending = true;  // as a restarted run will
   }
   if (!c.sent) {
-    PhaseTimer t(out_.times.coupling);
+    PhaseTimer t(out_.times.coupling.send);
     if (checkpoint) c.held.set_checkpoint(path);
     c.client->send_stats(c.held);
   }
@@ -379,7 +381,7 @@ void Level::coupling_end_step() {
 
 bus::IntervalStats Level::coupling_stats() {
   Coupled& c = *coupled_;
-  PhaseTimer t(out_.times.coupling);
+  PhaseTimer t(out_.times.coupling.statistics);
   bus::IntervalStats s;
   s.set_interval(c.k);
   s.set_sim_time(time());

@@ -314,10 +314,13 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
   // Collective part first: every rank contributes, rank 0 writes.
   const auto b = mass_balance();
   const PhaseTimes& pt = out_.times;
-  double sums[12] = {pt.integrate, pt.neighbor, pt.force, pt.comm, pt.measure, pt.insert, pt.output,
+  const CouplingTimes& ct = pt.coupling;
+  double sums[21] = {pt.integrate, pt.neighbor, pt.force, pt.comm, pt.measure, pt.insert, pt.output,
                      static_cast<double>(state_.nl.pairs()), static_cast<double>(memory_bytes()),
-                     static_cast<double>(state_.p.n_local()), pt.coupling, pt.coupling_wait};
-  comm_.sum_in_place(sums, 12);
+                     static_cast<double>(state_.p.n_local()), ct.total(), pt.coupling_wait, ct.insert,
+                     ct.crossings, ct.controller, ct.samples, ct.statistics, ct.send, pt.force_sample_steps,
+                     pt.sample_steps, pt.steps};
+  comm_.sum_in_place(sums, 21);
   const CouplingReport cr = coupling_report();
   if (comm_.rank() == 0) rank0_output([&] { write_summary_file(status, reason, b, sums, cr); });
   sync_output();
@@ -341,6 +344,19 @@ nlohmann::json energy_summary(const EnergyTotals& e) {
           {"in_motion_J", e.in_motion},
           {"max_gain_of_in_motion", e.in_motion > 0.0 ? e.max_gain / e.in_motion : 0.0},
           {"max_rise_of_in_motion", e.in_motion > 0.0 ? e.max_rise / e.in_motion : 0.0}};
+}
+
+// performance.coupling_parts: the coupling seconds in parts (summing to performance.seconds.coupling), and
+// what the stress-accumulating kernel costs on the steps that sample cells, over the other steps' force time.
+nlohmann::json coupling_parts_json(const double* sums, double nr) {
+  const double n_sample = sums[19] / nr, n_other = sums[20] / nr - n_sample;
+  const double f_sample = sums[18] / nr, f_other = sums[2] / nr - f_sample;
+  const double extra = n_sample > 0.0 && n_other > 0.0 ? f_sample - n_sample * (f_other / n_other) : 0.0;
+  return {{"insert", sums[12] / nr},           {"crossings", sums[13] / nr},
+          {"controller", sums[14] / nr},       {"samples", sums[15] / nr},
+          {"statistics", sums[16] / nr},       {"send", sums[17] / nr},
+          {"sample_steps", n_sample},          {"force_on_sample_steps", f_sample},
+          {"stress_kernel_extra", extra}};
 }
 
 }  // namespace
@@ -381,6 +397,7 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
       {"seconds", {{"integrate", sums[0] / nr}, {"neighbor", sums[1] / nr}, {"force", sums[2] / nr},
                    {"comm", sums[3] / nr}, {"measure", sums[4] / nr}, {"insert", sums[5] / nr},
                    {"output", sums[6] / nr}, {"coupling", sums[10] / nr}, {"coupling_wait", sums[11] / nr}}},
+      {"coupling_parts", coupling_parts_json(sums, nr)},
       {"rebuilds_per_1000_steps",
        run_.step > 0 ? 1000.0 * static_cast<double>(run_.rebuilds) / static_cast<double>(run_.step) : 0.0},
       {"neighbour_pairs_per_particle", sums[7] / n_now},

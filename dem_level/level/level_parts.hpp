@@ -30,6 +30,17 @@
 namespace mlcg {
 namespace io { class SnapshotSeries; class GridSeries; }
 
+// A level's coupling work in parts (summary.json: performance.coupling_parts): where the overhead goes.
+struct CouplingTimes {
+  double insert = 0.0;      // the coupler's insertion list: adding, overlap and wall checks
+  double crossings = 0.0;   // face crossings after each drift and births inside the region (coarse role)
+  double controller = 0.0;  // traction weights each interval, controller forces each step
+  double samples = 0.0;     // cell samples (the stress kernel's extra on those steps is in force)
+  double statistics = 0.0;  // the interval's message: cell means, occupants, mass check
+  double send = 0.0;        // handing the statistics to the bus
+  double total() const { return insert + crossings + controller + samples + statistics + send; }
+};
+
 // Wall seconds spent per phase of the step loop (for benchmarks and reports).
 struct PhaseTimes {
   double integrate = 0.0;  // both velocity-Verlet halves and the NaN guard
@@ -39,10 +50,13 @@ struct PhaseTimes {
   double measure = 0.0;    // probes, cell grids, event conditions
   double insert = 0.0;     // insertion batches
   double output = 0.0;     // series, snapshots, checkpoints
-  double coupling = 0.0;   // multi-level work: face crossings, cell samples, controller forces, statistics, insertion
+  CouplingTimes coupling;  // multi-level work, in parts
   double coupling_wait = 0.0;  // blocked on the coupler's commands (the other levels' pace included)
+  double force_sample_steps = 0.0;  // the part of force spent on steps that accumulate stress (cell samples)
+  double sample_steps = 0.0;        // how many steps those were
+  double steps = 0.0;               // steps this process ran (a resumed run's earlier ones not counted)
   double total() const {
-    return integrate + neighbor + force + comm + measure + insert + output + coupling + coupling_wait;
+    return integrate + neighbor + force + comm + measure + insert + output + coupling.total() + coupling_wait;
   }
 };
 

@@ -110,10 +110,15 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Ou
   const auto cpl = read_json(run_dir / "coupling" / "summary.json");
   double work = 0.0, wait = 0.0, pace_wait = INFINITY;
   std::string pace;
+  nlohmann::json work_parts;  // the parts of the largest level's coupling work
   for (const auto& e : s["levels"]) {
     if (!e.contains("performance")) continue;
     const auto& sec = e["performance"]["seconds"];
-    work = std::max(work, sec.value("coupling", 0.0));
+    if (sec.value("coupling", 0.0) >= work) {
+      work = sec.value("coupling", 0.0);
+      work_parts = e["performance"].value("coupling_parts", nlohmann::json::object());
+      work_parts["level"] = e.value("name", "");
+    }
     wait = std::max(wait, sec.value("coupling_wait", 0.0));
     if (sec.value("coupling_wait", 0.0) < pace_wait) {
       pace_wait = sec.value("coupling_wait", 0.0);
@@ -131,6 +136,11 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Ou
              {"coupler_busy_share", busy / wall},
              {"pacing_level", pace},
              {"pacing_level_wait_share", pace_wait / wall}};
+    // The largest level's work in parts, each a share of wall time: where an overhead above the goal goes.
+    auto& lp = parts["level_coupling_parts"];
+    lp = {{"level", work_parts.value("level", "")}};
+    for (const char* k : {"insert", "crossings", "controller", "samples", "statistics", "send", "stress_kernel_extra"})
+      lp[k] = work_parts.value(k, 0.0) / wall;
     // The pacing level's wait in parts: the other levels, the coupler's response, and the rest (the bus). With
     // statistics sent early ([coupling] lead) the coupler answers while the level still steps: no such parts.
     if (cs.coupling && cs.coupling->lead == 0.0) {
@@ -267,6 +277,15 @@ void print_end(const fs::path& run_dir, const Outcome& r) {
       std::printf(" (other levels %.1f %%, the coupler's response %.1f %%, the bus %.1f %%)",
                   100.0 * o.value("pacing_level_waited_for_levels_share", 0.0),
                   100.0 * o.value("coupler_response_share", 0.0), 100.0 * o.value("bus_share", 0.0));
+    if (o.contains("level_coupling_parts")) {
+      const auto& lp = o["level_coupling_parts"];
+      std::printf("; level %s's work: samples %.1f %%, controller %.1f %%, statistics %.1f %%, send %.1f %%, "
+                  "insertion %.1f %%, crossings %.1f %% (the stress kernel on sample steps %.1f %% more, in force)",
+                  lp.value("level", "?").c_str(), 100.0 * lp.value("samples", 0.0),
+                  100.0 * lp.value("controller", 0.0), 100.0 * lp.value("statistics", 0.0),
+                  100.0 * lp.value("send", 0.0), 100.0 * lp.value("insert", 0.0), 100.0 * lp.value("crossings", 0.0),
+                  100.0 * lp.value("stress_kernel_extra", 0.0));
+    }
     std::printf("\n");
   }
   for (const auto& p : s["probes"])

@@ -254,6 +254,49 @@ std::string every_probe_md(const std::vector<std::vector<StudyRow>>& every_probe
   return out;
 }
 
+// What the coupling costs each hierarchy's run (summary.json's overhead_share and its parts), as shares of its
+// wall time: the overhead's parts beside the error and speedup above.
+nlohmann::json coupling_cost(const fs::path& run) {
+  const auto c = read_json_file(run / "summary.json").value("coupling", nlohmann::json::object());
+  if (!c.contains("overhead_share")) return nullptr;
+  const auto o = c.value("overhead_parts", nlohmann::json::object());
+  return {{"overhead_share", c.value("overhead_share", 0.0)},
+          {"level_coupling_share", o.value("level_coupling_share", 0.0)},
+          {"coupler_busy_share", o.value("coupler_busy_share", 0.0)},
+          {"pacing_level", o.value("pacing_level", "")},
+          {"pacing_level_wait_share", o.value("pacing_level_wait_share", 0.0)},
+          {"level_coupling_parts", o.value("level_coupling_parts", nlohmann::json::object())}};
+}
+
+std::string coupling_cost_md(const std::vector<StudyRow>& rows) {
+  std::string body;
+  for (const auto& r : rows)
+    for (const auto& q : r.runs) {
+      const auto c = coupling_cost(q.run);
+      if (c.is_null()) continue;
+      const auto& lp = c["level_coupling_parts"];
+      const auto pct = [](double x) { return fmt::format("{:.1f}", 100.0 * x); };
+      body += fmt::format("| {}{} | **{}** | {} ({}) | {} | {} ({}) | {} | {} | {} | {} | {} | {} |\n", r.v->label,
+                          r.replicas > 1 ? fmt::format(" (seed {})", q.seed) : "",
+                          pct(c.value("overhead_share", 0.0)), pct(c.value("level_coupling_share", 0.0)),
+                          lp.value("level", "?"), pct(c.value("coupler_busy_share", 0.0)),
+                          pct(c.value("pacing_level_wait_share", 0.0)), c.value("pacing_level", "?"),
+                          pct(lp.value("samples", 0.0)), pct(lp.value("controller", 0.0)),
+                          pct(lp.value("statistics", 0.0)), pct(lp.value("send", 0.0)), pct(lp.value("insert", 0.0)),
+                          pct(lp.value("stress_kernel_extra", 0.0)));
+    }
+  if (body.empty()) return "";
+  return "\n## Coupling cost\n\nPer hierarchy run, % of its wall time: the overhead (the largest level's coupling work "
+         "plus the coupler's busy time), its parts, and the pacing level's wait for the coupler's commands (not "
+         "in the overhead). The level's work in parts: cell samples, controller forces, building the statistics, "
+         "sending them, inserting the coupler's particles; the stress kernel's extra on sample steps is counted in "
+         "its force time, not in the overhead.\n\n"
+         "| variant | overhead | level work (level) | coupler busy | wait (pacing level) | samples | controller | "
+         "statistics | send | insertion | stress kernel extra |\n"
+         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n" +
+         body;
+}
+
 void write_md(const StudySpec& s, const std::vector<StudyRow>& rows,
               const std::vector<std::vector<StudyRow>>& every_probe) {
   const bool swept = std::any_of(rows.begin(), rows.end(), [](const StudyRow& r) { return !r.v->sweep.empty(); });
@@ -281,6 +324,7 @@ void write_md(const StudySpec& s, const std::vector<StudyRow>& rows,
       out += fmt::format("- `{}`{}: `{}`{}\n", r.v->name, r.replicas > 1 ? fmt::format(" (seed {})", q.seed) : "",
                          q.run.string(), probe_from(r));
   out += every_probe_md(every_probe);
+  out += coupling_cost_md(rows);
   io::write_file_atomic(s.folder / "study.md", out);
 }
 
@@ -332,7 +376,8 @@ void write_json(const StudySpec& s, const std::vector<StudyRow>& rows,
                              {"error_ci_pct", json_number(r.error_ci_pct)},
                              {"wall_s", r.wall},
                              {"cpu_s", r.cpu},
-                             {"particle_steps", r.particle_steps}});
+                             {"particle_steps", r.particle_steps},
+                             {"coupling_cost", r.runs.empty() ? nullptr : coupling_cost(r.runs.front().run)}});
   j["pressure"] = pressure_layer(s, rows);
   j["probes"] = every_probe_json(every_probe);
   io::write_file_atomic(s.folder / "study.json", j.dump(2) + "\n");
