@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <set>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -155,6 +156,12 @@ void check_overhead(const fs::path& dir, const nlohmann::json& s, double launche
     EXPECT_GE(parts["sample_steps"].get<double>(), 2.0 * intervals) << name;
     EXPECT_LE(parts["sample_steps"].get<double>(), 2.0 * intervals + grid_samples) << name;
     EXPECT_GT(parts["samples"].get<double>(), 0.0) << name;
+    // Every interval that inserted particles (inserted.csv) rebuilt the fine level's lists for them: one rank,
+    // so each counts as the insertion's; the coarse level inserts nothing from the coupler.
+    std::set<std::string> inserting;
+    if (name[0] == 'f')
+      for (const auto& row : run_checks::read_csv(dir / "levels" / "fine" / "inserted.csv")) inserting.insert(row.at(0));
+    EXPECT_EQ(parts["insertion_rebuilds"].get<double>(), static_cast<double>(inserting.size())) << name;
   }
   const double busy = read_json(dir / "coupling" / "summary.json")["coupler_busy_seconds"].get<double>();
   EXPECT_GT(work, 0.0);
@@ -186,8 +193,13 @@ void check_overhead(const fs::path& dir, const nlohmann::json& s, double launche
 }  // namespace
 
 TEST(MlcgRun, TwoLevelHopperHandsMassOverExactlyAndDischargesThroughTheFineLevel) {
+  // With [coupling] lead = 0: the pacing level's wait splits into its parts only when the statistics leave at the
+  // interval's end. The default, lead = 0.5, is run by MlcgRecovery.StatisticsSentEarly... (the same checks of
+  // the hand-over, and a resume).
+  const fs::path cfile = mlcg::test::copy_case(kSrc + "/cases/quickstart/mlcg.toml", fresh_temp_path("lead0_case"),
+                                               {{"[coupling]", "[coupling]\nlead = 0"}});
   const auto t0 = std::chrono::steady_clock::now();
-  const fs::path dir = run_hierarchy_case("cases/quickstart/mlcg.toml", "2lvl");
+  const fs::path dir = run_hierarchy_case(cfile.string(), "2lvl");
   const std::chrono::duration<double> launcher_seconds = std::chrono::steady_clock::now() - t0;
   const auto s = read_json(dir / "summary.json");
   EXPECT_EQ(s["status"], "completed");
@@ -202,6 +214,7 @@ TEST(MlcgRun, TwoLevelHopperHandsMassOverExactlyAndDischargesThroughTheFineLevel
   check_overhead(dir, s, launcher_seconds.count());
   fs::remove_all(dir);
   fs::remove(dir.string() + ".out");
+  mlcg::test::remove_case_copy(cfile);
 }
 
 TEST(MlcgRun, ThreeLevelHopperNestsTwoRegionsThroughTheMiddleLevel) {
@@ -253,6 +266,16 @@ TEST(MlcgOpenSides, ARegionWithOpenSidesBooksBothDirectionsAndHandsFineMassBack)
   EXPECT_GT(s["probes"][0]["total_mass_kg"].get<double>(), 0.0);
   fs::remove_all(dir);
   fs::remove(dir.string() + ".out");
+  // The default lead = 0.5 books the open sides as exactly, to the end of the run: the last interval's
+  // statistics wait for its last step, so the removals there reach the coupler too.
+  const fs::path cfile = mlcg::test::copy_case(kSrc + "/tests/data/cases/open_side_bin.toml",
+                                               fresh_temp_path("open_sides_lead_case"), {{"lead = 0\n", "lead = 0.5\n"}});
+  const fs::path d2 = run_hierarchy_case(cfile.string(), "open_sides_lead");
+  const auto s2 = read_json(d2 / "summary.json");
+  check_region(d2, s2, 0, "fine");
+  EXPECT_GT(s2["coupling"]["regions"][0]["returned_kg"].get<double>(), 0.0);
+  remove_run(d2);
+  mlcg::test::remove_case_copy(cfile);
 }
 
 // The fine region's top 1 cm above a wide cone's junction with its cylinder (issue 11, item 1): the

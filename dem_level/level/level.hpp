@@ -236,6 +236,7 @@ class Level {
   void coupling_after_drift();          // face crossings
   void coupling_born(size_t i);         // particle i was just inserted by the level itself
   bool coupling_wants_stress() const;   // this step's forces feed a cell sample
+  bool coupling_take_insert_rebuild();  // the pending rebuild is the coupler's insertion's (cleared on reading)
   void coupling_forces();               // controller forces
   void coupling_end_step();             // cell samples; the statistics (at the interval's end or `lead` before)
   bus::IntervalStats coupling_stats();  // collective: the statistics of the running interval

@@ -37,6 +37,12 @@ struct Level::Coupled {
   uint64_t steps = 1;         // steps per interval
   double interval = 0.0;      // the coupler's, the same double on every level
   uint64_t send_at = 1;       // the step of the interval after which the statistics are built ([coupling] lead)
+  // The run's last interval (by the end time, the same whether or not the run is interrupted on the way) sends at
+  // its end: nothing may be counted after the last statistics (its last steps' removals and crossings would
+  // reach no interval's).
+  bool last = false;
+  bool insert_rebuild = false;  // this interval's insertion asked for a neighbour rebuild
+  uint64_t send_step() const { return last ? steps : send_at; }
   uint64_t sample_every = 1;  // steps between cell samples (up to send_at)
   bus::IntervalStats held;    // built, not yet sent (a checkpoint at the interval's end comes first)
   bool built = false, sent = false;
@@ -56,6 +62,10 @@ struct Level::Coupled {
 };
 
 namespace {
+
+// The intervals a run to `end` takes: counted in intervals, not in a level's steps, so that levels of different dt
+// stop after the same interval even when `end` is no whole number of intervals (the first boundary at or after it).
+double intervals_to(double end, double interval) { return std::ceil(end / interval - 1e-6); }
 
 // Largest overlap / diameter of particles [first, n) with each other and with
 // every other local particle: the new ones hashed, one pass over their slab.
@@ -192,6 +202,7 @@ void Level::coupling_begin_step() {
     }
   }
   c.stop = cmd.stop();
+  c.last = run_.end_time >= 0.0 && static_cast<double>(c.k + 1) >= intervals_to(run_.end_time, c.interval);
   c.checkpoint = cmd.checkpoint();
   c.checkpoint_path = cmd.checkpoint_path();
   c.stop_reason = cmd.stop_reason();
@@ -235,6 +246,7 @@ void Level::coupling_begin_step() {
       run_.explicit_count += static_cast<int64_t>(count);  // requested and inserted, like the case's own particles
       run_.explicit_mass += mass;
       stepper_.rebuild_pending = true;
+      c.insert_rebuild = true;
       if (r_big > stepper_.r_max) {  // the same on every rank
         log_->warn("coupling: inserted radius {:.4g} m exceeds the largest radius {:.4g} m the level was set up for",
                    r_big, stepper_.r_max);
@@ -286,10 +298,17 @@ void Level::coupling_born(size_t i) {
   for (auto& g : coupled_->grids) g.born(state_.p, i);
 }
 
+bool Level::coupling_take_insert_rebuild() {
+  const bool r = coupled_->insert_rebuild;
+  coupled_->insert_rebuild = false;
+  return r;
+}
+
 bool Level::coupling_wants_stress() const {
   const Coupled& c = *coupled_;
   const uint64_t j = c.done + 1;  // this step's number within the interval
-  return !c.grids.empty() && j <= c.send_at && (j % c.sample_every == 0 || j == c.send_at);
+  const uint64_t send = c.send_step();
+  return !c.grids.empty() && j <= send && (j % c.sample_every == 0 || j == send);
 }
 
 void Level::coupling_forces() {
@@ -315,10 +334,8 @@ bool Level::coupling_finished() const { return coupled_->finished; }
 bool Level::coupling_mid_interval() const { return coupled_ && coupled_->done != 0; }
 
 bool Level::coupling_reached(double end) const {
-  // Counted in intervals, not in this level's steps: levels of different dt must stop after the same
-  // interval even when `end` is no whole number of intervals (the first boundary at or after it).
   const Coupled& c = *coupled_;
-  return c.done == 0 && static_cast<double>(c.k) >= std::ceil(end / c.interval - 1e-6);
+  return c.done == 0 && static_cast<double>(c.k) >= intervals_to(end, c.interval);
 }
 
 const std::string& Level::coupling_stop_reason() const { return coupled_->stop_reason; }
@@ -345,7 +362,7 @@ void Level::coupling_end_step() {
   // The checkpoint at an interval's end before the statistics go: they tell the coupler it is on disk (its
   // consistent set). Statistics built early ([coupling] lead) wait for it; otherwise they go once built.
   const bool checkpoint = c.checkpoint && !opt_.out_dir.empty();
-  if (c.done == c.send_at && c.done < c.steps) {
+  if (c.done == c.send_step() && c.done < c.steps) {
     c.held = coupling_stats();
     c.built = true;
     if (!checkpoint) {

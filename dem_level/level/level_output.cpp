@@ -315,12 +315,12 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
   const auto b = mass_balance();
   const PhaseTimes& pt = out_.times;
   const CouplingTimes& ct = pt.coupling;
-  double sums[21] = {pt.integrate, pt.neighbor, pt.force, pt.comm, pt.measure, pt.insert, pt.output,
+  double sums[23] = {pt.integrate, pt.neighbor, pt.force, pt.comm, pt.measure, pt.insert, pt.output,
                      static_cast<double>(state_.nl.pairs()), static_cast<double>(memory_bytes()),
                      static_cast<double>(state_.p.n_local()), ct.total(), pt.coupling_wait, ct.insert,
                      ct.crossings, ct.controller, ct.samples, ct.statistics, ct.send, pt.force_sample_steps,
-                     pt.sample_steps, pt.steps};
-  comm_.sum_in_place(sums, 21);
+                     pt.sample_steps, pt.steps, pt.insert_rebuilds, pt.insert_rebuild_seconds};
+  comm_.sum_in_place(sums, 23);
   const CouplingReport cr = coupling_report();
   if (comm_.rank() == 0) rank0_output([&] { write_summary_file(status, reason, b, sums, cr); });
   sync_output();
@@ -356,7 +356,8 @@ nlohmann::json coupling_parts_json(const double* sums, double nr) {
           {"controller", sums[14] / nr},       {"samples", sums[15] / nr},
           {"statistics", sums[16] / nr},       {"send", sums[17] / nr},
           {"sample_steps", n_sample},          {"force_on_sample_steps", f_sample},
-          {"stress_kernel_extra", extra}};
+          {"stress_kernel_extra", extra},      {"insertion_rebuilds", sums[21] / nr},
+          {"insertion_rebuild_seconds", sums[22] / nr}};
 }
 
 }  // namespace

@@ -55,6 +55,8 @@ struct PhaseTimes {
   double force_sample_steps = 0.0;  // the part of force spent on steps that accumulate stress (cell samples)
   double sample_steps = 0.0;        // how many steps those were
   double steps = 0.0;               // steps this process ran (a resumed run's earlier ones not counted)
+  double insert_rebuilds = 0.0;         // neighbour rebuilds only the coupler's insertions asked for
+  double insert_rebuild_seconds = 0.0;  // their time (in neighbor)
   double total() const {
     return integrate + neighbor + force + comm + measure + insert + output + coupling.total() + coupling_wait;
   }

@@ -139,7 +139,8 @@ void write_summary(const config::CaseSpec& cs, const fs::path& run_dir, const Ou
     // The largest level's work in parts, each a share of wall time: where an overhead above the goal goes.
     auto& lp = parts["level_coupling_parts"];
     lp = {{"level", work_parts.value("level", "")}};
-    for (const char* k : {"insert", "crossings", "controller", "samples", "statistics", "send", "stress_kernel_extra"})
+    for (const char* k : {"insert", "crossings", "controller", "samples", "statistics", "send", "stress_kernel_extra",
+                          "insertion_rebuild_seconds"})
       lp[k] = work_parts.value(k, 0.0) / wall;
     // The pacing level's wait in parts: the other levels, the coupler's response, and the rest (the bus). With
     // statistics sent early ([coupling] lead) the coupler answers while the level still steps: no such parts.
@@ -280,11 +281,12 @@ void print_end(const fs::path& run_dir, const Outcome& r) {
     if (o.contains("level_coupling_parts")) {
       const auto& lp = o["level_coupling_parts"];
       std::printf("; level %s's work: samples %.1f %%, controller %.1f %%, statistics %.1f %%, send %.1f %%, "
-                  "insertion %.1f %%, crossings %.1f %% (the stress kernel on sample steps %.1f %% more, in force)",
+                  "insertion %.1f %%, crossings %.1f %% (the stress kernel on sample steps %.1f %% more, in force; "
+                  "rebuilds only the insertions asked for %.1f %%, in neighbor)",
                   lp.value("level", "?").c_str(), 100.0 * lp.value("samples", 0.0),
                   100.0 * lp.value("controller", 0.0), 100.0 * lp.value("statistics", 0.0),
                   100.0 * lp.value("send", 0.0), 100.0 * lp.value("insert", 0.0), 100.0 * lp.value("crossings", 0.0),
-                  100.0 * lp.value("stress_kernel_extra", 0.0));
+                  100.0 * lp.value("stress_kernel_extra", 0.0), 100.0 * lp.value("insertion_rebuild_seconds", 0.0));
     }
     std::printf("\n");
   }
