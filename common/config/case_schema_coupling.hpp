@@ -19,7 +19,7 @@ inline constexpr KeySpec kCoupling[] = {
     {"checkpoint_every", "number", "`0`", "≥ 0", "the simulated time between consistent checkpoints in s",
      kNonNegative, "s of simulated time (0 = automatic)"},
     // The statistics' window moves by `lead`: results depend on it (never on timing).
-    {"lead", "number", "`0`", "0 to 0.5", "the share of each interval by which a level sends its statistics early",
+    {"lead", "number", "`0.5`", "0 to 0.5", "the share of each interval by which a level sends its statistics early",
      closed(0.0, 0.5), "of the interval"},
     {"regions", "array of tables", "*required*", "at least one", "one [[coupling.regions]] entry per finer level"},
 };

@@ -263,7 +263,7 @@ struct CouplingSpec {              // [coupling]
   double timeout = 60.0;           // timeout [wall s] > heartbeat: a level silent this long stops the run
   double checkpoint_every = 0.0;   // checkpoint_every [s] >= 0: simulated time between consistent checkpoints
                                    //   of the hierarchy; 0 = automatic (0.02 s)
-  double lead = 0.0;               // lead in [0, 0.5]: each level sends its statistics floor(lead x its steps per
+  double lead = 0.5;               // lead in [0, 0.5]: each level sends its statistics floor(lead x its steps per
                                    //   interval) steps before the interval ends and counts those steps into the
                                    //   next interval's, so that the coupler's answer overlaps them
   std::vector<CouplingRegionSpec> regions;
