@@ -299,6 +299,39 @@ void Level::settle_kick() {
 
 void Level::step_once() { step(false); }
 
+void Level::timed_rebuild(bool for_insert) {
+  const double t0 = out_.times.neighbor;
+  {
+    PhaseTimer t(out_.times.neighbor);
+    rebuild();
+  }
+  if (for_insert) {
+    out_.times.insert_rebuilds += 1.0;
+    out_.times.insert_rebuild_seconds += out_.times.neighbor - t0;
+  }
+}
+
+void Level::step_forces() {
+  bool stress = false;
+  for (const auto& g : scene_.grids) stress = stress || (run_.step + 1) % g.sample_every == 0;
+  if (coupled_) stress = stress || coupling_wants_stress();
+  const double f0 = out_.times.force;
+  {
+    PhaseTimer t(out_.times.force);
+    clear_ghost_forces(state_.p);
+    stepper_.forces(stepper_.fctx, stress);
+  }
+  if (stress) {  // what the stress costs the kernels shows beside the other steps' force time
+    out_.times.force_sample_steps += out_.times.force - f0;
+    out_.times.sample_steps += 1.0;
+  }
+  if (coupled_) {  // timed as coupling work, not as force
+    if (account_) account_->before_controller(state_.p);
+    coupling_forces();
+    if (account_) account_->after_controller(state_.p);
+  }
+}
+
 void Level::step(bool may_owe) {
   if (coupled_) coupling_begin_step();
   pre_step();
@@ -336,38 +369,8 @@ void Level::step(bool may_owe) {
     for (auto& pr : scene_.probes) pr.check(state_.p);
   }
   if (coupled_) coupling_after_drift();
-  if (rebuild_now) {
-    const double t0 = out_.times.neighbor;
-    {
-      PhaseTimer t(out_.times.neighbor);
-      rebuild();
-    }
-    if (for_insert) {
-      out_.times.insert_rebuilds += 1.0;
-      out_.times.insert_rebuild_seconds += out_.times.neighbor - t0;
-    }
-  }
-  bool stress = false;
-  for (const auto& g : scene_.grids) stress = stress || (run_.step + 1) % g.sample_every == 0;
-  if (coupled_) stress = stress || coupling_wants_stress();
-  {
-    const double f0 = out_.times.force;
-    {
-      PhaseTimer t(out_.times.force);
-      clear_ghost_forces(state_.p);
-      stepper_.forces(stepper_.fctx, stress);
-    }
-    out_.times.steps += 1.0;
-    if (stress) {  // what the stress costs the kernels shows beside the other steps' force time
-      out_.times.force_sample_steps += out_.times.force - f0;
-      out_.times.sample_steps += 1.0;
-    }
-    if (coupled_) {  // timed as coupling work, not as force
-      if (account_) account_->before_controller(state_.p);
-      coupling_forces();
-      if (account_) account_->after_controller(state_.p);
-    }
-  }
+  if (rebuild_now) timed_rebuild(for_insert);
+  step_forces();
   const auto& st = stepper_.fctx.stats;
   if (account_) account_->wall_work(st.wall_power, physics_.dt);
   std::string problem;

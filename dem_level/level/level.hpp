@@ -198,6 +198,8 @@ class Level {
   // reads them between steps calls settle_kick() first (collective: guards the velocities);
   // pay_owed_kick() only applies it (on the way out of a failed run) and returns its checksum.
   void step(bool may_owe);
+  void timed_rebuild(bool for_insert);  // rebuild(), its time also booked to the insertion that asked for it
+  void step_forces();  // contact forces (with stress on sample steps), then the controller's
   bool may_owe_kick() const;
   void settle_kick();
   double pay_owed_kick();

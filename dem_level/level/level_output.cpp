@@ -319,7 +319,7 @@ void Level::write_summary(const std::string& status, const std::string& reason) 
                      static_cast<double>(state_.nl.pairs()), static_cast<double>(memory_bytes()),
                      static_cast<double>(state_.p.n_local()), ct.total(), pt.coupling_wait, ct.insert,
                      ct.crossings, ct.controller, ct.samples, ct.statistics, ct.send, pt.force_sample_steps,
-                     pt.sample_steps, pt.steps, pt.insert_rebuilds, pt.insert_rebuild_seconds};
+                     pt.sample_steps, static_cast<double>(steps_this_process_), pt.insert_rebuilds, pt.insert_rebuild_seconds};
   comm_.sum_in_place(sums, 23);
   const CouplingReport cr = coupling_report();
   if (comm_.rank() == 0) rank0_output([&] { write_summary_file(status, reason, b, sums, cr); });

@@ -54,7 +54,6 @@ struct PhaseTimes {
   double coupling_wait = 0.0;  // blocked on the coupler's commands (the other levels' pace included)
   double force_sample_steps = 0.0;  // the part of force spent on steps that accumulate stress (cell samples)
   double sample_steps = 0.0;        // how many steps those were
-  double steps = 0.0;               // steps this process ran (a resumed run's earlier ones not counted)
   double insert_rebuilds = 0.0;         // neighbour rebuilds only the coupler's insertions asked for
   double insert_rebuild_seconds = 0.0;  // their time (in neighbor)
   double total() const {

@@ -282,7 +282,7 @@ void print_end(const fs::path& run_dir, const Outcome& r) {
       const auto& lp = o["level_coupling_parts"];
       std::printf("; level %s's work: samples %.1f %%, controller %.1f %%, statistics %.1f %%, send %.1f %%, "
                   "insertion %.1f %%, crossings %.1f %% (the stress kernel on sample steps %.1f %% more, in force; "
-                  "rebuilds only the insertions asked for %.1f %%, in neighbor)",
+                  "rebuilds at the insertions %.1f %%, in neighbor)",
                   lp.value("level", "?").c_str(), 100.0 * lp.value("samples", 0.0),
                   100.0 * lp.value("controller", 0.0), 100.0 * lp.value("statistics", 0.0),
                   100.0 * lp.value("send", 0.0), 100.0 * lp.value("insert", 0.0), 100.0 * lp.value("crossings", 0.0),

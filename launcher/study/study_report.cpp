@@ -290,7 +290,7 @@ std::string coupling_cost_md(const std::vector<StudyRow>& rows) {
          "plus the coupler's busy time), its parts, and the pacing level's wait for the coupler's commands (not "
          "in the overhead). The level's work in parts: cell samples, controller forces, building the statistics, "
          "sending them, inserting the coupler's particles; the stress kernel's extra on sample steps is counted in "
-         "its force time and the neighbour rebuilds only the insertions asked for in its neighbour time, not in the "
+         "its force time and the neighbour rebuilds at the insertions in its neighbour time, not in the "
          "overhead.\n\n"
          "| variant | overhead | level work (level) | coupler busy | wait (pacing level) | samples | controller | "
          "statistics | send | insertion | stress kernel extra | insertion rebuilds |\n"
