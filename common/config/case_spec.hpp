@@ -97,6 +97,8 @@ struct WallSpec {                  // [[walls]]
   bool moving() const { return angular_velocity != 0.0 || !(surface_velocity == Vec3{}); }
   // The largest radius of a surface of revolution (0 for a plane or mesh): where a turning wall is fastest.
   double outer_radius() const { return std::max({radius, radius_bottom, radius_top}); }
+  // The fastest speed of its surface [m/s]: a belt's, or a turning wall's at its outer radius.
+  double surface_speed() const { return norm(surface_velocity) + std::abs(angular_velocity) * outer_radius(); }
   SourceLoc loc;
   bool operator==(const WallSpec&) const = default;
 };

@@ -60,7 +60,7 @@ namespace {
 std::pair<double, std::string> fastest_wall_surface(const config::CaseSpec& cs) {
   std::pair<double, std::string> out{0.0, ""};
   for (const auto& w : cs.walls) {
-    const double v = norm(w.surface_velocity) + std::abs(w.angular_velocity) * w.outer_radius();
+    const double v = w.surface_speed();
     if (v > out.first) out = {v, w.name};
   }
   return out;

@@ -183,7 +183,7 @@ void print_moving_walls(const config::CaseSpec& cs) {
       const double rim = w.outer_radius();
       std::printf("wall '%s' turns at %g rad/s about %s through %s (its surface at %.3g m/s at radius %g m)\n",
                   w.name.c_str(), w.angular_velocity, config::vec_text(w.axis / norm(w.axis)).c_str(),
-                  config::vec_text(w.center).c_str(), std::abs(w.angular_velocity) * rim, rim);
+                  config::vec_text(w.center).c_str(), w.surface_speed(), rim);
     } else {
       std::printf("wall '%s' moves its surface at %s m/s (%.3g m/s), the geometry in place\n", w.name.c_str(),
                   config::vec_text(w.surface_velocity).c_str(), norm(w.surface_velocity));
