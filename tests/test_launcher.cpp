@@ -156,12 +156,12 @@ void check_overhead(const fs::path& dir, const nlohmann::json& s, double launche
     EXPECT_GE(parts["sample_steps"].get<double>(), 2.0 * intervals) << name;
     EXPECT_LE(parts["sample_steps"].get<double>(), 2.0 * intervals + grid_samples) << name;
     EXPECT_GT(parts["samples"].get<double>(), 0.0) << name;
-    // Every interval that inserted particles (inserted.csv) rebuilt the fine level's lists for them: one rank,
-    // so each counts as the insertion's; the coarse level inserts nothing from the coupler.
-    std::set<std::string> inserting;
-    if (name[0] == 'f')
-      for (const auto& row : run_checks::read_csv(dir / "levels" / "fine" / "inserted.csv")) inserting.insert(row.at(0));
-    EXPECT_EQ(parts["insertion_rebuilds"].get<double>(), static_cast<double>(inserting.size())) << name;
+    // On one rank the coupler's particles join the lists without a rebuild (the fine level inserted in many
+    // intervals, inserted.csv): none of its rebuilds is the insertions'.
+    if (name[0] == 'f') {
+      EXPECT_GT(run_checks::read_csv(dir / "levels" / "fine" / "inserted.csv").size(), 100u);
+    }
+    EXPECT_EQ(parts["insertion_rebuilds"].get<double>(), 0.0) << name;
   }
   const double busy = read_json(dir / "coupling" / "summary.json")["coupler_busy_seconds"].get<double>();
   EXPECT_GT(work, 0.0);

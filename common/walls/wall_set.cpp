@@ -178,12 +178,18 @@ bool WallSet::crosses(const Vec3& a, const Vec3& b) const {
 }
 
 void WallSet::build_candidates(const Particles& p, double skin, bool with_history) {
-  const size_t n = p.n_local();
-  first.assign(n + 1, 0);
+  first.assign(1, 0);
   prim.clear();
   near.clear();
+  hist.clear();
+  append_candidates(p, 0, skin, with_history);
+}
+
+void WallSet::append_candidates(const Particles& p, size_t first_new, double skin, bool with_history) {
+  if (first.size() != first_new + 1)
+    throw std::logic_error("WallSet::append_candidates: the candidates do not end where the new particles start");
   WallGeom g;
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = first_new; i < p.n_local(); ++i) {
     const double reach = p.radius[i] + skin;
     for (int32_t a = 0; a < analytic_count(); ++a) {
       if (!info_[static_cast<size_t>(analytic_wall_[static_cast<size_t>(a)])].active) continue;
@@ -195,10 +201,10 @@ void WallSet::build_candidates(const Particles& p, double skin, bool with_histor
       meshes_[static_cast<size_t>(in.mesh)]->query(p.x[i], reach, scratch_);
       for (int32_t t : scratch_) prim.push_back(in.prim_begin + t);
     }
-    first[i + 1] = static_cast<int32_t>(prim.size());
+    first.push_back(static_cast<int32_t>(prim.size()));
     if (first[i + 1] > first[i]) near.push_back(static_cast<int32_t>(i));
   }
-  if (with_history) hist.assign(prim.size(), Vec3{});
+  if (with_history) hist.resize(prim.size(), Vec3{});
   else hist.clear();
 }
 

@@ -82,6 +82,9 @@ class WallSet {
   double overlap(const Vec3& x, double r) const;
 
   void build_candidates(const Particles& p, double skin, bool with_history);
+  // The candidates of particles [first_new, n_local) appended since the last build, the others' kept
+  // (their history too; the new ones start with none).
+  void append_candidates(const Particles& p, size_t first_new, double skin, bool with_history);
   void save_history(const Particles& p, ContactHistory& out) const;
   void load_history(const ContactHistory& in);
   static int64_t history_key(int32_t prim) { return -1 - static_cast<int64_t>(prim); }

@@ -104,9 +104,9 @@ double ControllerForces::side_distance(const Vec3& x) const {
   return d;
 }
 
-void ControllerForces::refresh(const Particles& p, double band) {
-  near_.clear();
-  for (size_t i = 0; i < p.n_local(); ++i) {
+void ControllerForces::refresh(const Particles& p, double band, size_t from) {
+  if (from == 0) near_.clear();
+  for (size_t i = from; i < p.n_local(); ++i) {
     const double s = top_ - p.x[i].z;
     const bool near_side = !geo_.open_sides().empty() && std::fabs(side_distance(p.x[i]) - 0.5 * depth_) < 0.5 * depth_ + band;
     if ((s > -band && s < depth_ + band) || near_side) near_.push_back(static_cast<uint32_t>(i));

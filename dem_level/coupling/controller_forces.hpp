@@ -35,7 +35,7 @@ class ControllerForces {
   void normalise(const Particles& p, const Comm& comm);
   // Fine role, after a neighbour-list rebuild: the particles that may enter a faded column
   // before the next one (depth below D + band). Without a refresh apply() visits every particle.
-  void refresh(const Particles& p, double band);
+  void refresh(const Particles& p, double band, size_t from = 0);  // from > 0: [from, n) appended since
   // Adds the forces to this rank's particles (p.f). in_box: null, or the particles that may lie in
   // the grid's box (the coarse role's accelerations visit only those).
   void apply(Particles& p, const std::vector<uint32_t>* in_box = nullptr) const;

@@ -31,11 +31,11 @@ void FaceFlux::reset() {
   histogram.assign(nf_ * nb_, 0);
 }
 
-void FaceFlux::refresh(const Particles& p, double band) {
+void FaceFlux::refresh(const Particles& p, double band, size_t from) {
   const Vec3 lo = geo_.box_lo(), hi = geo_.box_hi();
-  plane_.refresh(p, band, [&](const Vec3& x, double) { return bus::near_box(x, lo, hi, band, false); });
+  plane_.refresh(p, band, [&](const Vec3& x, double) { return bus::near_box(x, lo, hi, band, false); }, from);
   for (auto& sp : sides_)
-    sp.plane.refresh(p, band, [&](const Vec3& x, double) { return bus::near_box(x, lo, hi, band); });
+    sp.plane.refresh(p, band, [&](const Vec3& x, double) { return bus::near_box(x, lo, hi, band); }, from);
 }
 
 void FaceFlux::add(size_t f, double m, const Vec3& v, const Vec3& x, double r, int sign) {

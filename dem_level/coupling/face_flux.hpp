@@ -32,7 +32,7 @@ class FaceFlux {
   size_t bins() const { return nb_; }
 
   // After a neighbour-list rebuild (band: the skin; no centre moves further before the next one).
-  void refresh(const Particles& p, double band);
+  void refresh(const Particles& p, double band, size_t from = 0);  // from: see PlaneCrossings::refresh
   // After the drift of every step: counts the crossings of this rank's particles.
   void check(const Particles& p);
   // A particle of this rank created inside the region below the boundary surface (by the

@@ -48,11 +48,11 @@ std::vector<ParticleInit> GridLink::parse_inserts(const bus::GridCommands& c, in
   return out;
 }
 
-void GridLink::refresh(const Particles& p, double band) {
-  if (role_ == Role::Coarse) flux_.refresh(p, band);
-  else forces_.refresh(p, band);
-  in_box_.clear();
-  for (size_t i = 0; i < p.n_local(); ++i)
+void GridLink::refresh(const Particles& p, double band, size_t from) {
+  if (role_ == Role::Coarse) flux_.refresh(p, band, from);
+  else forces_.refresh(p, band, from);
+  if (from == 0) in_box_.clear();
+  for (size_t i = from; i < p.n_local(); ++i)
     if (bus::near_box(p.x[i], lo_, hi_, band)) in_box_.push_back(static_cast<uint32_t>(i));
   in_box_valid_ = true;
 }

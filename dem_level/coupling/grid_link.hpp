@@ -48,8 +48,9 @@ class GridLink {
   // sums. Throws std::invalid_argument on commands that do not fit the grid.
   void begin_interval(const bus::GridCommands* c, const Particles& p, const Comm& comm, uint64_t inserted,
                       double inserted_mass);
-  // After a neighbour-list rebuild (band: the skin; until the next rebuild no particle moves half of it).
-  void refresh(const Particles& p, double band);
+  // After a neighbour-list rebuild (band: the skin; until the next rebuild no particle moves half of it), or
+  // with from > 0 after particles [from, n_local) were appended without one (the others' lists stand).
+  void refresh(const Particles& p, double band, size_t from = 0);
   void after_drift(const Particles& p) {  // after the positions moved
     if (role_ == Role::Coarse) flux_.check(p);
   }

@@ -246,6 +246,9 @@ class Level {
   bool coupling_removes(size_t i);      // rebuild: particle i left a fine region (counted)
   void check_inserted_walls(Coupled& c, const bus::CouplingGeometry& geo, size_t first);  // particles [first, n)
   void coupling_refresh();              // rebuild: crossing candidates
+  // One rank with valid lists: the coupler's particles can join them without a rebuild (append_inserted).
+  bool can_append() const;
+  void append_inserted(size_t first);   // particles [first, n) into the lists and candidates
   bool coupling_finished() const;       // the coupler said stop and the last interval is done
   bool coupling_mid_interval() const;   // coupled, with steps of the current interval still to run
   bool coupling_reached(double end) const;  // the last interval of a run ending at `end` is done

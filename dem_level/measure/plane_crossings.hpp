@@ -25,13 +25,17 @@ class PlaneCrossings {
   const Vec3& normal() const { return normal_; }
 
   // After a rebuild: candidates are the local particles within `band` of the
-  // plane for which keep(x, s) holds (s = signed distance of x).
+  // plane for which keep(x, s) holds (s = signed distance of x). from > 0: only
+  // particles [from, n_local) are new since the last refresh (appended without a
+  // rebuild), the others' candidacy stands.
   template <class Keep>
-  void refresh(const Particles& p, double band, Keep keep) {
-    cand_.clear();
-    side_.clear();
-    prev_.clear();
-    for (size_t i = 0; i < p.n_local(); ++i) {
+  void refresh(const Particles& p, double band, Keep keep, size_t from = 0) {
+    if (from == 0) {
+      cand_.clear();
+      side_.clear();
+      prev_.clear();
+    }
+    for (size_t i = from; i < p.n_local(); ++i) {
       const double s = distance(p.x[i]);
       if (s > band || s < -band) continue;
       if (!keep(p.x[i], s)) continue;

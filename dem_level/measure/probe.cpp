@@ -7,11 +7,11 @@
 
 namespace mlcg {
 
-void MassFlowProbe::refresh(const Particles& p, double band) {
+void MassFlowProbe::refresh(const Particles& p, double band, size_t from) {
   const double lateral = prm_.radius + band;
   plane_.refresh(p, band, [&](const Vec3& x, double s) {
     return norm2(x - prm_.point - s * prm_.normal) <= lateral * lateral;
-  });
+  }, from);
 }
 
 void MassFlowProbe::check(const Particles& p) {

@@ -40,7 +40,7 @@ class MassFlowProbe {
   explicit MassFlowProbe(ProbeParams prm) : prm_(std::move(prm)), plane_(prm_.point, prm_.normal) {}
 
   // After a rebuild: remember which side of the plane each nearby particle is on.
-  void refresh(const Particles& p, double band);
+  void refresh(const Particles& p, double band, size_t from = 0);  // from: see PlaneCrossings::refresh
   // After positions changed: count crossings of the candidates (this rank's particles).
   void check(const Particles& p);
   // At time t, is the open sample's interval over? (the same answer on every rank)

@@ -2,7 +2,8 @@
 // Neighbour search: particles are binned into cubic cells no smaller than the
 // largest interaction distance (2 r_max + skin), and a half Verlet list is
 // built from the 27 surrounding cells: each pair (i, j) appears once, under
-// the smaller index i, when |x_i - x_j| < r_i + r_j + skin. Ghost particles
+// the smaller index i, when |x_i - x_j| < r_i + r_j + skin (particles appended
+// since the build: under the later one, see append()). Ghost particles
 // (index >= n_local) only ever appear as j. The list is rebuilt when some
 // particle has moved more than skin/2 since the last build.
 //
@@ -52,9 +53,18 @@ class NeighborList {
 
   // Build the half list for the current positions; keeps x_build for the displacement test.
   void build(const Particles& p, bool with_history);
+  // Lists the pairs of particles [first_new, n) appended since the last build or append, without
+  // touching the other rows. Every pair of a new particle is listed under the later of the two, j < i
+  // in those rows (the kernels apply each pair to both partners whatever their order). Only for a list with no ghosts among the particles (one
+  // rank). A new particle's pairs reach r_i + r_j + 1.5 skin: until the next rebuild it moves at most
+  // skin/2 from where it is inserted, an older particle at most skin/2 from its position at the
+  // build, so up to a whole skin from where it is now.
+  void append(const Particles& p, size_t first_new, bool with_history);
   bool needs_rebuild(const Particles& p) const;
   // Positions at the last build (for a fused displacement test); null if they do not match p.
   const Vec3* reference(const Particles& p) const { return x_build_.size() == p.size() ? x_build_.data() : nullptr; }
+  // The list was built (or appended to) for exactly these particles.
+  bool matches(const Particles& p) const { return x_build_.size() == p.size() && first.size() == p.n_local() + 1; }
 
   // Move the history of touching pairs into per-particle storage (both partners
   // get an entry: i holds +h under id_j, j holds -h under id_i).
