@@ -67,26 +67,15 @@ namespace {
 // stop after the same interval even when `end` is no whole number of intervals (the first boundary at or after it).
 double intervals_to(double end, double interval) { return std::ceil(end / interval - 1e-6); }
 
-// Largest overlap / diameter of particles [first, n) with each other and with
-// every other local particle: the new ones hashed, one pass over their slab.
-double insert_overlap(const Particles& p, size_t first, double reach) {
-  const size_t n = p.n_local();
-  if (first >= n) return 0.0;
-  SphereHash fresh(reach);
-  double zlo = std::numeric_limits<double>::infinity(), zhi = -zlo;
-  for (size_t i = first; i < n; ++i) {
-    fresh.add(p.x[i], p.radius[i]);
-    zlo = std::min(zlo, p.x[i].z - reach);
-    zhi = std::max(zhi, p.x[i].z + reach);
-  }
+// Largest overlap / diameter of particles [first, n) with each other and with every other local particle
+// (a pair of two new ones over the smaller's diameter).
+double insert_overlap(const Particles& p, size_t first) {
   double worst = 0.0;
-  for (size_t j = 0; j < n; ++j) {
-    if (p.x[j].z < zlo || p.x[j].z > zhi) continue;  // the new particles sit in a thin slab
-    fresh.find_near(p.x[j], p.radius[j], [&](size_t k, const Vec3& xi, double ri) {
-      if (first + k != j) worst = std::max(worst, (ri + p.radius[j] - norm(xi - p.x[j])) / (2.0 * ri));
-      return false;
-    });
-  }
+  for_new_pairs(p, first, 0.0, [&](size_t k, size_t j, double d2) {
+    const double rk = p.radius[k], rj = p.radius[j], gap = rk + rj - std::sqrt(d2);
+    worst = std::max(worst, gap / (2.0 * rk));
+    if (j >= first) worst = std::max(worst, gap / (2.0 * rj));
+  });
   return worst;
 }
 
@@ -239,8 +228,7 @@ void Level::coupling_begin_step() {
       }
       count = list.size();
       c.inserted += count;
-      const double reach = 2.0 * std::max(stepper_.r_max, r_big);
-      c.worst_overlap = std::max(c.worst_overlap, insert_overlap(state_.p, first_new, reach));
+      c.worst_overlap = std::max(c.worst_overlap, insert_overlap(state_.p, first_new));
       check_inserted_walls(c, c.grids[l].geometry(), first_new);
       // Not `+= count`: add_particle already raised run_.next_id, on the owning rank only. The ranks must agree on
       // ids (contact histories are keyed by them).

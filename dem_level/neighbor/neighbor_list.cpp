@@ -5,8 +5,6 @@
 #include <limits>
 #include <stdexcept>
 
-#include "core/spheres.hpp"
-
 namespace mlcg {
 
 void CellBins::build(const std::vector<Vec3>& x, size_t count, double min_cell) {
@@ -130,29 +128,11 @@ void NeighborList::append(const Particles& p, size_t first_new, bool with_histor
   if (p.size() != n || first.size() != first_new + 1 || x_build_.size() != first_new || first_new > n)
     throw std::logic_error("NeighborList::append: the list does not end where the new particles start");
   if (first_new == n) return;
-  const double reach = 1.5 * skin_;
-  double r_new = 0.0, zlo = std::numeric_limits<double>::infinity(), zhi = -zlo;
-  for (size_t k = first_new; k < n; ++k) r_new = std::max(r_new, p.radius[k]);
-  SphereHash fresh(2.0 * r_new + reach);
-  for (size_t k = first_new; k < n; ++k) {
-    fresh.add(p.x[k], p.radius[k]);
-    zlo = std::min(zlo, p.x[k].z - r_new - reach);
-    zhi = std::max(zhi, p.x[k].z + r_new + reach);
+  for (size_t k = first_new; k < n; ++k)
     if (p.material[k] != single_material_) single_material_ = -1;
-  }
   std::vector<std::vector<int32_t>> rows(n - first_new);
-  const auto near = [&](size_t j) {
-    fresh.find_near(p.x[j], p.radius[j] + reach, [&](size_t q, const Vec3& xk, double rk) {
-      const double cut = rk + p.radius[j] + reach;
-      if (first_new + q > j && norm2(xk - p.x[j]) < cut * cut) rows[q].push_back(static_cast<int32_t>(j));
-      return false;
-    });
-  };
-  // The older particles in the new ones' slab, then the new ones among themselves: each pair is listed
-  // once, under the later of its two particles.
-  for (size_t j = 0; j < first_new; ++j)
-    if (p.x[j].z + p.radius[j] >= zlo && p.x[j].z - p.radius[j] <= zhi) near(j);
-  for (size_t j = first_new; j < n; ++j) near(j);
+  for_new_pairs(p, first_new, 1.5 * skin_,
+                [&](size_t k, size_t j, double) { rows[k - first_new].push_back(static_cast<int32_t>(j)); });
   for (auto& row : rows) {
     std::sort(row.begin(), row.end());  // the order a build would give a row: deterministic
     neigh.insert(neigh.end(), row.begin(), row.end());

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/particles.hpp"
+#include "core/spheres.hpp"
 #include "core/vec3.hpp"
 
 namespace mlcg {
@@ -42,6 +43,32 @@ class CellBins {
   std::vector<int32_t> start_, sorted_, cell_;
 };
 
+// Calls f(k, j, d2) once for every pair of a new local particle k in [first_new, n_local) with a
+// particle j < k, older or new, whose centres lie closer than r_k + r_j + reach (d2: their squared
+// distance): the new ones hashed, one pass over the others in their slab. The insertion's overlap
+// check and NeighborList::append both ask this.
+template <class F>
+void for_new_pairs(const Particles& p, size_t first_new, double reach, F&& f) {
+  const size_t n = p.n_local();
+  if (first_new >= n) return;
+  double r_new = 0.0, zlo = 1e300, zhi = -1e300;
+  for (size_t k = first_new; k < n; ++k) r_new = std::max(r_new, p.radius[k]);
+  SphereHash fresh(2.0 * r_new + reach);
+  for (size_t k = first_new; k < n; ++k) {
+    fresh.add(p.x[k], p.radius[k]);
+    zlo = std::min(zlo, p.x[k].z - r_new - reach);
+    zhi = std::max(zhi, p.x[k].z + r_new + reach);
+  }
+  for (size_t j = 0; j < n; ++j) {
+    if (j < first_new && (p.x[j].z + p.radius[j] < zlo || p.x[j].z - p.radius[j] > zhi)) continue;
+    fresh.find_near(p.x[j], p.radius[j] + reach, [&](size_t q, const Vec3& xk, double rk) {
+      const double cut = rk + p.radius[j] + reach, d2 = norm2(xk - p.x[j]);
+      if (first_new + q > j && d2 < cut * cut) f(first_new + q, j, d2);
+      return false;
+    });
+  }
+}
+
 class NeighborList {
  public:
   std::vector<int32_t> first{0};  // n_local + 1 offsets into neigh
@@ -55,8 +82,8 @@ class NeighborList {
   void build(const Particles& p, bool with_history);
   // Lists the pairs of particles [first_new, n) appended since the last build or append, without
   // touching the other rows. Every pair of a new particle is listed under the later of the two, j < i
-  // in those rows (the kernels apply each pair to both partners whatever their order). Only for a list with no ghosts among the particles (one
-  // rank). A new particle's pairs reach r_i + r_j + 1.5 skin: until the next rebuild it moves at most
+  // in those rows (the kernels apply each pair to both partners whatever their order). Only for a
+  // list with no ghosts among the particles (one rank). A new particle's pairs reach r_i + r_j + 1.5 skin: until the next rebuild it moves at most
   // skin/2 from where it is inserted, an older particle at most skin/2 from its position at the
   // build, so up to a whole skin from where it is now.
   void append(const Particles& p, size_t first_new, bool with_history);
