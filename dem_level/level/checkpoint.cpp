@@ -502,7 +502,6 @@ void Level::restore_probes(const io::H5Reader& r, const SceneMap& map) {
   for (size_t k = 0; k < scene_.probes.size(); ++k) {
     auto& pr = scene_.probes[k];
     auto& s = pr.state();
-    pr.refresh(state_.p, stepper_.skin);  // sides of the plane as they are now, as the uninterrupted run knows them
     const int from = map.probes[k];
     if (from < 0) {  // added since the checkpoint: it measures from now on
       s.sample_start = time();

@@ -243,10 +243,14 @@ void Level::rebuild() {
   state_.pair_hist = ContactHistory{};
   state_.wall_hist = ContactHistory{};
   state_.history_loaded = false;
-  for (auto& pr : scene_.probes) pr.refresh(state_.p, stepper_.skin);
-  if (coupled_) coupling_refresh();
+  refresh_candidates();
   ++run_.rebuilds;
   stepper_.rebuild_pending = false;
+}
+
+void Level::refresh_candidates() {
+  for (auto& pr : scene_.probes) pr.refresh(state_.p, stepper_.skin);
+  if (coupled_) coupling_refresh();
 }
 
 std::string Level::describe_particle(size_t i) const {

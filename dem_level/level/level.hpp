@@ -192,6 +192,7 @@ class Level {
   void insert_due(double t);
   void fire_event(size_t e);
   void rebuild();
+  void refresh_candidates();  // probes' and coupling's crossing candidates, from the particles where they are
   std::string non_finite(const char* what, uint64_t step) const;  // names the first bad particle
   // run()'s steps may leave their second half-kick owed to the next step's first half (one pass
   // over the arrays instead of two): while kick_owed_, v and omega are half a kick short. Whatever

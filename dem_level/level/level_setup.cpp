@@ -217,6 +217,9 @@ void Level::start_state() {
     out_.snaps = std::make_unique<io::SnapshotSeries>(opt_.out_dir, "particles", !opt_.restart.empty());
   if (!opt_.coupler.empty()) connect_coupler();
   else if (opt_.restart.empty()) initial_forces();
+  // A step checks the crossings before its rebuild. The probes' and the coupling's candidates start from the loaded
+  // positions, the sides the uninterrupted run knows (a coupling face lost a crossing in a restart's first step).
+  if (stepper_.rebuild_pending) refresh_candidates();
 }
 
 void Level::initial_forces() {
