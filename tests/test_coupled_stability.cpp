@@ -46,17 +46,19 @@ struct Scene {
 
 void PrintTo(const Scene& s, std::ostream* os) { *os << s.name; }
 
-// Each level's bound about 10x its own rise measured 2026-12-04 (in the comment, same order), or kFloor.
+// Each level's bound about 10x its own rise measured 2026-12-06 at e366408 (in the comment, same order; the runs
+// depend on the seed only, the same digits on every run), or kFloor. dense_stream's coarse level, 6.0e-6 when its
+// bound was set, now rises by rounding only: held to kFloor (a drift of 1e-10 per step, 7.6e-8, passed 6e-5).
 const Scene kScenes[] = {
     {"youngs_1e6", {{"coarse", kFloor}, {"fine", kFloor}}},       // 2.3e-14, 0
     {"youngs_1e10", {{"coarse", kFloor}, {"fine", kFloor}}},      // 2.2e-12, 4.9e-15
-    {"alpha8", {{"coarse8", 9e-4}, {"fine", kFloor}}},            // 8.7e-5, 2.3e-16
-    {"dt_guard_3lvl", {{"coarsest", kFloor}, {"coarse", kFloor}, {"fine", kFloor}}},  // 7.7e-15, 0, 0
-    {"dense_stream", {{"coarse", 6e-5}, {"fine", kFloor}}},       // 6.0e-6, 1.2e-14
+    {"alpha8", {{"coarse8", 4e-4}, {"fine", kFloor}}},            // 4.2e-5, 4.5e-16
+    {"dt_guard_3lvl", {{"coarsest", kFloor}, {"coarse", kFloor}, {"fine", kFloor}}},  // 7.7e-15, 0, 8.5e-14
+    {"dense_stream", {{"coarse", kFloor}, {"fine", kFloor}}},     // 1.3e-13, 1.3e-14
     {"gains_99", {{"coarse", kFloor}, {"fine", kFloor}}},         // 0, 0
     {"junction", {{"coarse", kFloor}, {"fine", kFloor}}},         // 0, 0
     {"rank_border", {{"coarse", kFloor}, {"fine", kFloor}}},      // 0, 0
-    {"undamped", {{"coarse", 4e-3}, {"fine", 2e-3}}},             // 3.8e-4, 2.2e-4
+    {"undamped", {{"coarse", 4e-3}, {"fine", 2e-3}}},             // 6.5e-4, 4.9e-4 (6x, 4x: not loosened)
 };
 
 struct LevelResult {
