@@ -117,11 +117,13 @@ void Level::insert_due(double t) {
     if (!placed.empty()) {
       // New local particles go before the ghosts; the rebuild restores them.
       state_.detach_ghosts(stepper_.keep_history);
+      const size_t first = state_.p.n_local();
       for (const auto& pi : placed)
         if (stepper_.dec.owner(pi.x) == comm_.rank()) {
           add_particle(pi);
           if (coupled_) coupling_born(state_.p.n_local() - 1);
         }
+      refresh_candidates(first);  // one placed just above a face or a probe may cross it in this very step
       stepper_.rebuild_pending = true;
     }
     if (in.state().done && in.state().failed > 0)
@@ -248,9 +250,9 @@ void Level::rebuild() {
   stepper_.rebuild_pending = false;
 }
 
-void Level::refresh_candidates() {
-  for (auto& pr : scene_.probes) pr.refresh(state_.p, stepper_.skin);
-  if (coupled_) coupling_refresh();
+void Level::refresh_candidates(size_t from) {
+  for (auto& pr : scene_.probes) pr.refresh(state_.p, stepper_.skin, from);
+  if (coupled_) coupling_refresh(from);
 }
 
 std::string Level::describe_particle(size_t i) const {

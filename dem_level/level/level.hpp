@@ -192,7 +192,9 @@ class Level {
   void insert_due(double t);
   void fire_event(size_t e);
   void rebuild();
-  void refresh_candidates();  // probes' and coupling's crossing candidates, from the particles where they are
+  // The probes' and the coupling's crossing candidates, from the particles where they are; from > 0: only the
+  // particles [from, n_local) added since (a step checks crossings before its rebuild: they may cross in it).
+  void refresh_candidates(size_t from = 0);
   std::string non_finite(const char* what, uint64_t step) const;  // names the first bad particle
   // run()'s steps may leave their second half-kick owed to the next step's first half (one pass
   // over the arrays instead of two): while kick_owed_, v and omega are half a kick short. Whatever
@@ -246,9 +248,9 @@ class Level {
   std::vector<double> coupling_pending() const;  // every grid's sums since the last statistics, this rank's
   bool coupling_removes(size_t i);      // rebuild: particle i left a fine region (counted)
   void check_inserted_walls(Coupled& c, const bus::CouplingGeometry& geo, size_t first);  // particles [first, n)
-  void coupling_refresh();              // rebuild: crossing candidates
   // One rank with valid lists: the coupler's particles can join them without a rebuild (append_inserted).
   bool can_append() const;
+  void coupling_refresh(size_t from);  // the grids' part of refresh_candidates
   void append_inserted(size_t first);   // particles [first, n) into the lists and candidates
   bool coupling_finished() const;       // the coupler said stop and the last interval is done
   bool coupling_mid_interval() const;   // coupled, with steps of the current interval still to run

@@ -249,6 +249,7 @@ void Level::coupling_begin_step() {
       if (append) {
         append_inserted(first_new);
       } else {
+        refresh_candidates(first_new);  // they may cross a face (of a region this level feeds) before the rebuild
         stepper_.rebuild_pending = true;
         c.insert_rebuild = !pending;
       }
@@ -296,10 +297,13 @@ void Level::append_inserted(size_t first) {
   // the new particles join the lists, everything else stays as it is until the next rebuild.
   state_.nl.append(state_.p, first, stepper_.keep_history);
   state_.walls.append_candidates(state_.p, first, stepper_.skin, stepper_.keep_history);
-  for (auto& pr : scene_.probes) pr.refresh(state_.p, stepper_.skin, first);
-  for (auto& g : coupled_->grids) g.refresh(state_.p, stepper_.skin, first);
+  refresh_candidates(first);
   stepper_.global_particles = static_cast<int64_t>(state_.p.n_local());
   stepper_.rebuild_pending = false;  // add_particle asked for one; the lists hold the new particles now
+}
+
+void Level::coupling_refresh(size_t from) {
+  for (auto& g : coupled_->grids) g.refresh(state_.p, stepper_.skin, from);
 }
 
 void Level::coupling_after_drift() {
@@ -336,10 +340,6 @@ bool Level::coupling_removes(size_t i) {
       return true;
     }
   return false;
-}
-
-void Level::coupling_refresh() {
-  for (auto& g : coupled_->grids) g.refresh(state_.p, stepper_.skin);
 }
 
 bool Level::coupling_finished() const { return coupled_->finished; }
