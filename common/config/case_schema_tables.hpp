@@ -68,7 +68,7 @@ inline constexpr KeySpec kLevel[] = {
     {"dt_alpha1", "number", "—", "> 0; not with `dt`", "the time step at alpha = 1 in s (> 0)", kPositive, "s"},
     {"dt_rayleigh", "number", "—", "(0, 1]; not with `dt` or `dt_alpha1`, nor with `[initial]`",
      "a share of the Rayleigh time in (0, 1]", {0.0, 1.0, true, false}},
-    {"ranks", "integer", "`1`", "≥ 1", "the MPI processes of this level (>= 1)", closed(1.0, 1e6), "",
+    {"ranks", "integer", "`1`", "1 to 1e6", "the MPI processes of this level (1 to 1e6)", closed(1.0, 1e6), "",
      "the number of MPI processes of this level"},
     {"skin", "number", "`0`", "≥ 0", "the neighbour-list skin in m (>= 0)", kNonNegative, "m (0 = automatic)"},
     {"processors", "array of 3 integers", "automatic", "product = `ranks`", "the process grid [px, py, pz]"},
