@@ -107,9 +107,48 @@ ParticleSizes particle_sizes(const config::CaseSpec& cs, const MaterialTable& mt
   return s;
 }
 
+// The point the grid's cells must be reached from without crossing a wall: `inside` when given. Otherwise
+// the centre of the box half a cell under its top, unless a vertical line from it up to the insertions' top
+// crosses a wall: then it lies outside the vessel (a region wider than a wedge hopper's neck: the box's
+// centre beside the wedge), and the point is the middle of the top layer's cell centres that the fill
+// reaches (under an insertion's box, the vertical line up to that box's top crossing no wall: the
+// inserter's own test), or the one of them nearest to that middle. Without insertions (an initial file)
+// the centre.
+Vec3 inside_point(const config::CouplingRegionSpec& rs, const WallSet& walls, const bus::CouplingGrid& gr,
+                  const Vec3& centre, const std::vector<config::RegionSpec>& fills) {
+  if (rs.inside) return *rs.inside;
+  const double h = rs.cell_size;
+  const auto filled = [&](const Vec3& p) {
+    return !walls.touches(p, 0.0) && std::any_of(fills.begin(), fills.end(), [&](const config::RegionSpec& f) {
+             return p.x >= f.min.x && p.x <= f.max.x && p.y >= f.min.y && p.y <= f.max.y && p.z <= f.max.z &&
+                    !walls.crosses(p, {p.x, p.y, f.max.z});
+           });
+  };
+  double fill_top = centre.z;
+  for (const auto& f : fills) fill_top = std::max(fill_top, f.max.z);
+  if (fills.empty() || (!walls.touches(centre, 0.0) && !walls.crosses(centre, {centre.x, centre.y, fill_top})))
+    return centre;
+  std::vector<Vec3> under;
+  Vec3 mid;
+  for (uint32_t j = 0; j < gr.ny(); ++j)
+    for (uint32_t i = 0; i < gr.nx(); ++i) {
+      const Vec3 p{rs.min.x + (i + 0.5) * h, rs.min.y + (j + 0.5) * h, centre.z};
+      if (filled(p)) under.push_back(p), mid += p;
+    }
+  if (under.empty())
+    throw std::invalid_argument(rs.loc.str() + ": no cell of the region's top layer lies under the fill (a vertical "
+                                "line from each cell's centre up to an insertion's top crosses a wall, or no insertion lies over it); give `inside` = "
+                                "a point inside the vessel within the region");
+  // The middle of the vessel's section (the cells cut by the walls see less of it from their centres).
+  mid = (1.0 / static_cast<double>(under.size())) * mid;
+  if (filled(mid)) return mid;
+  return *std::min_element(under.begin(), under.end(),
+                           [&](const Vec3& a, const Vec3& b) { return norm2(a - mid) < norm2(b - mid); });
+}
+
 // The region's grid: cells clipped to the geometry, open sides, insertion and fade depths, radius bins.
 void fill_grid(bus::CouplingGrid& gr, const config::CouplingRegionSpec& rs, const WallSet& walls, int lc, int lf,
-               double ac, double af, const ParticleSizes& sizes) {
+               double ac, double af, const ParticleSizes& sizes, const std::vector<config::RegionSpec>& fills) {
   const double h = rs.cell_size;
   const Vec3 ext = rs.max - rs.min;
   const auto cells_along = [h](double e) { return static_cast<uint32_t>(std::max(1.0, std::ceil(e / h - 1e-9))); };
@@ -123,8 +162,8 @@ void fill_grid(bus::CouplingGrid& gr, const config::CouplingRegionSpec& rs, cons
   gr.set_ny(cells_along(ext.y));
   gr.set_nz(cells_along(ext.z));
   const double top = rs.min.z + gr.nz() * h;
-  const Vec3 inside = rs.inside ? *rs.inside
-                                : Vec3{rs.min.x + 0.5 * gr.nx() * h, rs.min.y + 0.5 * gr.ny() * h, top - 0.5 * h};
+  const Vec3 centre{rs.min.x + 0.5 * gr.nx() * h, rs.min.y + 0.5 * gr.ny() * h, top - 0.5 * h};
+  const Vec3 inside = inside_point(rs, walls, gr, centre, fills);
   const auto cells = clipped_cells(walls, rs.min, h, gr.nx(), gr.ny(), gr.nz(), inside);
   const uint32_t top_layer = gr.nx() * gr.ny() * (gr.nz() - 1);
   if (std::none_of(cells.begin(), cells.end(), [&](uint32_t c) { return c >= top_layer; }))
@@ -154,7 +193,9 @@ RegionConfig region_config(const config::CaseSpec& cs, const config::CouplingReg
   const double ac = cs.levels[static_cast<size_t>(lc)].alpha, af = cs.levels[static_cast<size_t>(lf)].alpha;
   const double g = norm(cs.gravity), height = cs.domain.max.z - cs.domain.min.z;
   RegionConfig rc;
-  fill_grid(rc.grid, rs, walls, lc, lf, ac, af, sizes);
+  std::vector<config::RegionSpec> fills;
+  for (const auto& in : cs.insertions) fills.push_back(in.region);
+  fill_grid(rc.grid, rs, walls, lc, lf, ac, af, sizes, fills);
   rc.planner.ratio = ac / af;
   rc.planner.density = sizes.density;
   rc.planner.insert_depth = rc.grid.insert_depth();

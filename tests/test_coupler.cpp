@@ -1,6 +1,6 @@
 // The coupler's logic without sockets: controllers, insertion planner and one
 // interval of Coupler::advance, driven by scripted level statistics; hostile
-// statistics and damaged checkpoints refused.
+// statistics and damaged checkpoints refused. Also the grid a case's region gives (from_case.hpp).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,7 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "config/case_parser.hpp"
 #include "coupler.hpp"
+#include "from_case.hpp"
 
 using namespace mlcg;
 using namespace mlcg::coupling;
@@ -507,4 +509,33 @@ TEST(Coupler, RestoreRefusesADamagedCheckpointNamingRegionAndFace) {
     EXPECT_NE(msg.find("coupler checkpoint: " + d.expect), std::string::npos) << msg;
     EXPECT_NE(msg.find("the checkpoint is damaged"), std::string::npos) << msg;
   }
+}
+
+// The belt feeder's region spans the wedge hopper's neck and the whole belt. With its top 4 cm above the slot
+// (1.33 slot widths) its box's centre, half a cell under the top, lies beside the wedge, outside the vessel.
+// Counted from there, the cells "inside the walls" were the air around the hopper (69 cells, 79 boundary faces,
+// 61 of them sides), and the coupler found no place for a fine particle in 1.6 s. The default point now comes
+// from the cells the fill reaches from above: the grid equals the one with `inside` given in the hopper by
+// hand, and its point lies inside the wedge.
+TEST(CaseCoupling, ARegionWhoseBoxCentreLiesBesideTheHopperIsCountedFromInsideIt) {
+  const std::string path = std::string(MLCG_SOURCE_DIR) + "/cases/feeder/mlcg.toml";
+  const auto grid_of = [](const config::CaseSpec& cs) { return coupling_from_case(cs).cfg.regions.at(0).grid; };
+  config::CaseSpec cs = config::load_case(path);
+  ASSERT_FALSE(cs.coupling->regions.at(0).inside.has_value());
+  cs.coupling->regions[0].max.z = 0.04;
+  const bus::CouplingGrid by_default = grid_of(cs);
+
+  cs.coupling->regions[0].inside = Vec3{0.0, 0.0, 0.03};  // above the slot, by hand
+  const bus::CouplingGrid by_hand = grid_of(cs);
+  cs.coupling->regions[0].inside = Vec3{0.04, 0.0, 0.03};  // the box's centre: beside the wedge
+  const bus::CouplingGrid from_the_centre = grid_of(cs);
+
+  ASSERT_EQ(by_default.inside_point_size(), 3);
+  const double x = by_default.inside_point(0), z = by_default.inside_point(2);
+  const double half_width = 0.015 + z * std::tan(30.0 * M_PI / 180.0);  // the wedge's walls, 30 deg from vertical
+  EXPECT_LT(std::fabs(x), half_width - 0.0014) << "the default point is not inside the wedge";
+  EXPECT_EQ(std::vector<uint32_t>(by_default.cells().begin(), by_default.cells().end()),
+            std::vector<uint32_t>(by_hand.cells().begin(), by_hand.cells().end()));
+  EXPECT_EQ(by_default.cells_size(), 30);
+  EXPECT_EQ(from_the_centre.cells_size(), 69);  // what the old default counted
 }

@@ -33,7 +33,10 @@ inline constexpr KeySpec kCouplingRegion[] = {
     {"min", "vector", "*required*", "`max > min` in every axis; inside the domain", "the lower corner (m)"},
     {"max", "vector", "*required*", "`max > min` in every axis; inside the domain", "the upper corner (m)"},
     {"cell_size", "number", "`0.02`", "> 0", "the edge of the cubic coupling cells in m (> 0)", kPositive, "m"},
-    {"inside", "vector", "centre of the box's top face", "inside the box (faces included)",
+    {"inside", "vector",
+     "the box's centre half a cell under its top; where that lies outside the vessel, the middle of the top layer's "
+     "cells the fill reaches",
+     "inside the box (faces included)",
      "a point inside the geometry and the region's box (m)"},
     {"insert_depth", "number", "`0`", "≥ 0", "the thickness of the insertion slab in m (>= 0)", kNonNegative,
      "m (0 = automatic)"},

@@ -231,7 +231,7 @@ struct CouplingRegionSpec {        // [[coupling.regions]] one fine region insid
   std::string coarse, fine;        // coarse = "name", fine = "name": [[levels]] names, alpha(coarse) > alpha(fine)
   Vec3 min, max;                   // min, max [m]: box of the fine region, rounded outward to whole cells
   double cell_size = 0.02;         // cell_size [m] > 0: cubic coupling cells (paper: 2 cm)
-  std::optional<Vec3> inside;      // inside: a point inside the geometry; default: centre of the box's top face
+  std::optional<Vec3> inside;      // inside: a point inside the geometry; default: the top layer's centre under the fill
   double insert_depth = 0.0;       // insert_depth [m] >= 0: slab below the boundary surface where fine particles
                                    //   are inserted; 0 = automatic (2 coarse diameters, at most one cell)
   double fade = 1.5;               // fade > 0 [fine diameters]: the PI traction fades out over this depth
