@@ -100,6 +100,7 @@ class Service {
   void fail(const std::string& why);
   void send_commands(std::vector<bus::IntervalCommands> cmds);
   void write_logs(uint64_t k);  // the region logs' rows of interval k
+  std::string unplaced_warning(size_t r, double remainder, double crossed, uint64_t placed) const;  // "" if none
   // Per-face totals and a summary (coupling/faces_region<r>.csv, coupling/summary.json), atomically.
   void write_final(const std::string& status) const;
   // Consistent checkpoints (service_checkpoint.cpp).

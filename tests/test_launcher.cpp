@@ -212,6 +212,7 @@ TEST(MlcgRun, TwoLevelHopperHandsMassOverExactlyAndDischargesThroughTheFineLevel
   const auto coarse = read_json(dir / "levels" / "coarse" / "summary.json");
   EXPECT_EQ(coarse["mass_balance"]["inserted"].get<int64_t>(), 313);
   check_overhead(dir, s, launcher_seconds.count());
+  EXPECT_FALSE(s["coupling"]["regions"][0].contains("unplaced_warning")) << s["coupling"]["regions"][0].dump();
   fs::remove_all(dir);
   fs::remove(dir.string() + ".out");
   mlcg::test::remove_case_copy(cfile);
@@ -229,6 +230,29 @@ TEST(MlcgRun, ThreeLevelHopperNestsTwoRegionsThroughTheMiddleLevel) {
   EXPECT_GT(s["probes"][0]["total_mass_kg"].get<double>(), 0.1 * inserted);
   fs::remove_all(dir);
   fs::remove(dir.string() + ".out");
+}
+
+// A region whose cells are counted from a point outside the vessel (here `inside` given beside the funnel; the
+// belt feeder's shallow region did it with the default point): no coarse crossing point is reachable from there,
+// so the planner places nothing, and the fine level's probe reads nothing. The run says so instead of reporting
+// a discharge it cannot vouch for.
+TEST(MlcgRun, ARegionThatPlacesNoFineParticleIsWarnedOfWithItsMissingMass) {
+  const fs::path cfile = mlcg::test::copy_case(kSrc + "/cases/quickstart/mlcg.toml", fresh_temp_path("outside_case"),
+                                               {{"cell_size = 0.02\n", "cell_size = 0.02\ninside = [0.035, 0.035, 0.03]\n"},
+                                                {"end = 0.6", "end = 0.3"}});
+  const fs::path dir = run_hierarchy_case(cfile.string(), "outside");
+  const auto s = read_json(dir / "summary.json");
+  const auto& g = s["coupling"]["regions"][0];
+  EXPECT_EQ(g["inserted_particles"].get<int64_t>(), 0);
+  EXPECT_GT(g["crossed_kg"].get<double>(), 0.0);
+  ASSERT_TRUE(g.contains("unplaced_warning")) << g.dump();
+  const std::string w = g["unplaced_warning"];
+  EXPECT_NE(w.find("region 0: "), std::string::npos) << w;
+  EXPECT_NE(w.find("(100 %) found no place on its fine level (0 fine particles placed)"), std::string::npos) << w;
+  EXPECT_NE(w.find("give `inside`"), std::string::npos) << w;
+  EXPECT_NE(slurp(dir.string() + ".out").find("warning: " + w), std::string::npos) << "the launcher does not print it";
+  remove_run(dir);
+  mlcg::test::remove_case_copy(cfile);
 }
 
 // A fine region that does not span its bin (issue 11, item 2): its four sides are boundary faces. Coarse

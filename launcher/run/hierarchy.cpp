@@ -268,6 +268,9 @@ void print_end(const fs::path& run_dir, const Outcome& r) {
                   "%.1f %% of wall time\n",
                   g.value("inserted_particles", 0ULL), g.value("inserted_kg", 0.0), g.value("crossed_kg", 0.0),
                   g.value("remainder_kg", 0.0), 100.0 * s["coupling"].value("overhead_share", 0.0));
+  if (s.contains("coupling") && s["coupling"].contains("regions"))
+    for (const auto& g : s["coupling"]["regions"])
+      if (g.contains("unplaced_warning")) std::printf("warning: %s\n", g["unplaced_warning"].get<std::string>().c_str());
   if (s.contains("coupling") && s["coupling"].contains("overhead_parts")) {
     const auto& o = s["coupling"]["overhead_parts"];
     std::printf("coupling cost: levels' coupling work %.1f %% and coupler %.1f %% of wall time; level %s, which sets "
