@@ -14,7 +14,8 @@ autocorrelation of the batch means is above 0.1 and at least 10 batches remain, 
 degrees of freedom). Plain python3 (3.11+, for tomllib), no packages.
 
 The functions below (reading a count file, a probe's window from a case, the rates and their batch-means
-interval, the report) are shared with cases/outlets/liggghts_rate.py, which imports this file.
+interval, the report) are shared with cases/outlets/liggghts_rate.py and cases/feeder/liggghts_rate.py,
+which import this file.
 """
 import argparse
 import math
@@ -149,7 +150,7 @@ def batch_means_ci(rates):
 def report(label, times, present, masses, t0, t1):
     """Prints <m_dot> +- its 95 % interval and sigma over [t0, t1] of the cumulative `masses` [kg] at
     `times` [s]; `present` = the particles in the box at each row (a drop inside the window is warned of:
-    particles lost from the box are missing from the counted mass)."""
+    particles lost from the box are missing from the counted mass), or None where lost particles are counted."""
     if len(times) < 2:
         sys.exit(f"{label}: fewer than 2 rows")
     rates = window_rates(times, masses, t0, t1)
@@ -158,11 +159,12 @@ def report(label, times, present, masses, t0, t1):
         sys.exit(f"{label}: {len(rates)} sample(s) in the window [{t0:g}, {t1:g}] s (the file ends at {last:g} s)")
     mean, sigma, ci, nb, b, r1 = batch_means_ci(rates)
     note = "" if r1 <= LAG1_LIMIT else f" (lag-1 of the batch means {r1:.2f} > 0.1: the window is short for its correlation time; the interval is likely too narrow)"
+    held = "" if present is None else f"; particles present {int(min(present))}..{int(max(present))}"
     print(f"{label}: window [{t0:g}, {t1:g}] s, {len(rates)} samples at {1.0 / (times[1] - times[0]):.0f} Hz "
-          f"(file to {last:g} s; particles present {int(min(present))}..{int(max(present))})")
+          f"(file to {last:g} s{held})")
     print(f"<m_dot> = {mean:.6g} kg/s +- {ci:.2g} kg/s (95 % CI, batch means: {nb} batches of {b} samples){note}")
     print(f"sigma(m_dot) = {sigma:.3g} kg/s")
-    inside = [p for t, p in zip(times, present) if t0 - 1e-9 <= t <= t1 + 1e-9]
+    inside = [] if present is None else [p for t, p in zip(times, present) if t0 - 1e-9 <= t <= t1 + 1e-9]
     if any(q < p for p, q in zip(inside, inside[1:])):
         print(f"warning: particles left the box during the window ({int(max(inside) - inside[-1])} fewer at its end "
               "than at most): the counted mass misses them")

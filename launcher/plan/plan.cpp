@@ -303,10 +303,12 @@ Plan make_plan(const config::CaseSpec& cs, const config::OutletScan& scan, const
   p.levels = plan_levels(cs, o.levels, inner, p.regions);
   p.regions.insert(p.regions.end(), inner.begin(), inner.end());
   std::string text = fmt::format(
-      "# Written by `mlcg plan` from {} (--error {:g}, --levels {}): the scene's {} outlet(s) found in its walls, one "
+      "# Written by `mlcg plan` from {} (--error {:g}, --levels {}): the scene's {} outlet(s) {}, one "
       "fine region per outlet (one around outlets whose regions would touch), sized by the region rules' evidence.\n"
       "base = \"{}\"\ntitle = \"{} (MLCG as planned: {} levels)\"\n",
-      cs.path, o.error, o.levels, scan.outlets.size(), base_path(cs.path, out), cs.title, o.levels);
+      cs.path, o.error, o.levels, scan.outlets.size(),
+      cs.orifices.empty() ? "found in its walls" : "given by [orifice] / [[orifices]]", base_path(cs.path, out),
+      cs.title, o.levels);
   for (const auto& l : p.levels)
     text += fmt::format("\n[[levels]]\nname = \"{}\"\nalpha = {}\ndt = {}\n{}", l.name, num(l.alpha), num(l.dt),
                         l.ranks > 1 ? fmt::format("ranks = {}\n", l.ranks) : "");
