@@ -147,7 +147,8 @@ Vec3 inside_point(const config::CouplingRegionSpec& rs, const WallSet& walls, co
 }
 
 // The region's grid: cells clipped to the geometry, open sides, insertion and fade depths, radius bins.
-void fill_grid(bus::CouplingGrid& gr, const config::CouplingRegionSpec& rs, const WallSet& walls, int lc, int lf,
+void fill_grid(bus::CouplingGrid& gr, const config::CouplingRegionSpec& rs, const WallSet& walls,
+               const WallSet& lids_closed, int lc, int lf,
                double ac, double af, const ParticleSizes& sizes, const std::vector<config::RegionSpec>& fills) {
   const double h = rs.cell_size;
   const Vec3 ext = rs.max - rs.min;
@@ -170,7 +171,9 @@ void fill_grid(bus::CouplingGrid& gr, const config::CouplingRegionSpec& rs, cons
     throw std::invalid_argument(rs.loc.str() + ": no cell of the region's top layer lies inside the geometry "
                                 "(check min/max, or give `inside` = a point inside the walls)");
   for (uint32_t c : cells) gr.add_cells(c);
-  open_sides(walls, gr, inside);
+  // The vessel goes on beyond a side where the walls with the outlets' lids in place let one reach it: beyond an
+  // opened lid lies the outflow (a side-wall hole's stream), which the coarse level does not feed the region from.
+  open_sides(lids_closed, gr, inside);
   inside_fractions(walls, gr, inside);
   for (double v : {inside.x, inside.y, inside.z}) gr.add_inside_point(v);
   const double d_coarse = 2.0 * sizes.r_max * ac, d_fine = 2.0 * sizes.r_max * af;
@@ -182,6 +185,7 @@ void fill_grid(bus::CouplingGrid& gr, const config::CouplingRegionSpec& rs, cons
 
 // One region's grid, insertion planner and controllers; `index` is its place among the case's regions.
 RegionConfig region_config(const config::CaseSpec& cs, const config::CouplingRegionSpec& rs, const WallSet& walls,
+                           const WallSet& lids_closed,
                            const ParticleSizes& sizes, size_t index) {
   const auto index_of = [&](const std::string& name) {
     for (size_t l = 0; l < cs.levels.size(); ++l)
@@ -195,7 +199,7 @@ RegionConfig region_config(const config::CaseSpec& cs, const config::CouplingReg
   RegionConfig rc;
   std::vector<config::RegionSpec> fills;
   for (const auto& in : cs.insertions) fills.push_back(in.region);
-  fill_grid(rc.grid, rs, walls, lc, lf, ac, af, sizes, fills);
+  fill_grid(rc.grid, rs, walls, lids_closed, lc, lf, ac, af, sizes, fills);
   rc.planner.ratio = ac / af;
   rc.planner.density = sizes.density;
   rc.planner.insert_depth = rc.grid.insert_depth();
@@ -227,9 +231,11 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
   cfg.timeout = cp.timeout;
   for (const auto& l : cs.levels) cfg.levels.push_back({l.name, l.alpha, l.dt, static_cast<uint32_t>(l.ranks)});
 
-  // Walls an event removes (an orifice lid) do not clip the grid or block insertion.
+  // Walls an event removes (an orifice lid) do not clip the grid or block insertion; they do close the vessel
+  // where the region's open sides are found.
   const MaterialTable mt = materials_of_case(cs);
-  auto walls = std::make_shared<WallSet>(walls_from_case(cs, mt));
+  const WallSet lids_closed = walls_from_case(cs, mt);
+  auto walls = std::make_shared<WallSet>(lids_closed);
   std::set<std::string> removed;
   for (const auto& e : cs.events) removed.insert(e.remove_walls.begin(), e.remove_walls.end());
   for (size_t w = 0; w < walls->walls(); ++w)
@@ -239,7 +245,7 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
     return !walls->touches(x, r) && !walls->crosses(anchor, x);
   };
   const ParticleSizes sizes = particle_sizes(cs, mt);
-  for (const auto& rs : cp.regions) cfg.regions.push_back(region_config(cs, rs, *walls, sizes, cfg.regions.size()));
+  for (const auto& rs : cp.regions) cfg.regions.push_back(region_config(cs, rs, *walls, lids_closed, sizes, cfg.regions.size()));
   return out;
 }
 

@@ -270,6 +270,7 @@ TEST(ControllerForces, CoarseCellAccelerationIsMassTimesA) {
 TEST(GridLink, InsertionListRemovalAndOccupantsAreCounted) {
   auto grid = make_grid({0, 0, 0}, 0.01, 2, 2, 2);
   grid.set_insert_depth(0.004);
+  grid.add_side_faces(4 * 3 + 1);  // the vessel goes on beyond the +x side of cell (1, 1, 0): a boundary face there
   GridLink fine(0, grid, Role::Fine);
   bus::GridCommands c;
   c.set_grid(0);
@@ -295,20 +296,25 @@ TEST(GridLink, InsertionListRemovalAndOccupantsAreCounted) {
   const double m_in = sphere_mass(kRho, 1e-3) + sphere_mass(kRho, 1.5e-3);
   fine.begin_interval(&c, p, Comm{}, list.size(), m_in);
   EXPECT_TRUE(fine.leaves({0.005, 0.005, 0.0201}));   // above the boundary surface
-  EXPECT_TRUE(fine.leaves({-0.001, 0.005, 0.01}));    // beside the box
-  EXPECT_TRUE(fine.leaves({0.005, 0.021, 0.01}));
+  EXPECT_TRUE(fine.leaves({0.021, 0.015, 0.005}));    // beside the box, through its open side
+  // Beside a side that is no boundary face the box lies outside the vessel: a particle there left the vessel
+  // (a stream off a belt's end), not the region into the coarse level's part of it; it is no hand-back.
+  EXPECT_FALSE(fine.leaves({0.021, 0.015, 0.015}));   // beside cell (1, 1, 1): no face on its +x side
+  EXPECT_FALSE(fine.leaves({-0.001, 0.005, 0.01}));
+  EXPECT_FALSE(fine.leaves({0.005, 0.021, 0.01}));
   EXPECT_FALSE(fine.leaves({0.005, 0.005, -0.01}));   // below the box: still falling through the fine level
   EXPECT_FALSE(fine.leaves({0.005, 0.005, 0.0199}));
-  // Left upward through the face above (0.005, 0.005) and sideways beside it: both go back to the
-  // face they left by (the grid's faces are the top faces of its 2 x 2 columns).
+  // Left upward through the face above (0.005, 0.005) and sideways through the open side: each
+  // goes back to the face it left by (the top faces of the 2 x 2 columns, then the side face).
   const int f0 = fine.geometry().face_column({0.005, 0.005, 0.0});
   ASSERT_GE(f0, 0);
+  ASSERT_EQ(fine.geometry().faces(), 5u);
   fine.count_removed({0.005, 0.005, 0.0201}, 0.25);
-  fine.count_removed({-0.001, 0.005, 0.019}, 0.5);
+  fine.count_removed({0.021, 0.015, 0.005}, 0.5);
   const bus::GridStats g = fine.finish(p, Comm{}, 1.5e-3);
   ASSERT_EQ(static_cast<size_t>(g.face_returned_mass_size()), fine.geometry().faces());
   for (int f = 0; f < g.face_returned_mass_size(); ++f)
-    EXPECT_DOUBLE_EQ(g.face_returned_mass(f), f == f0 ? 0.75 : 0.0) << "face " << f;
+    EXPECT_DOUBLE_EQ(g.face_returned_mass(f), f == f0 ? 0.25 : f == 4 ? 0.5 : 0.0) << "face " << f;
   double in_region = 0.0;  // summed here over the box [0, 0.02)^3, independently of the grid's cell lookup
   for (size_t i = 0; i < p.n_local(); ++i)
     if (p.x[i].z >= 0.0 && p.x[i].z < 0.02 && p.x[i].x >= 0.0 && p.x[i].x < 0.02 && p.x[i].y >= 0.0 && p.x[i].y < 0.02)

@@ -62,9 +62,13 @@ class GridLink {
   void add_forces(Particles& p) const {
     if (forces_.active()) forces_.apply(p, box_list());
   }
-  // Fine role: a centre above the boundary surface or beside the box has left the region.
+  // Fine role: a centre above the boundary surface or beside the box has left the region, into the coarse
+  // level's part of the vessel. Beside a side that is no boundary face (outside the vessel: the stream off a
+  // belt's end, out of a side-wall hole) it has left the vessel: it stays a fine particle until it leaves the
+  // domain, and its mass is not handed back to a face to be placed again under the region's top.
   bool leaves(const Vec3& x) const {
-    return role_ == Role::Fine && (x.z > top_ || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y);
+    return role_ == Role::Fine && (x.z > top_ || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y) &&
+           !geo_.beside_a_closed_side(x);
   }
   // Fine role: a particle at x left the region (removed by the level); its mass goes back to its face.
   void count_removed(const Vec3& x, double mass);

@@ -135,23 +135,39 @@ int CouplingGeometry::face_column(const Vec3& x) const {
 
 namespace mlcg::bus {
 
-int CouplingGeometry::exit_face(const Vec3& x) const {
-  if (faces_.empty()) return -1;
-  // By the side it is furthest beyond: above the top, its column's face; beside the box, the side
-  // face of the cell next to it.
+CouplingGeometry::Beyond CouplingGeometry::beyond(const Vec3& x) const {
+  // By the side it is furthest beyond: above the top, or beside the box next to a cell of it.
   const Vec3 lo = box_lo(), hi = box_hi();
   const double ex = std::max({lo.x - x.x, x.x - hi.x, 0.0}), ey = std::max({lo.y - x.y, x.y - hi.y, 0.0}),
                ez = std::max(x.z - top(), 0.0);
+  Beyond b;
   if (ez > 0.0 && ez >= ex && ez >= ey) {
-    const int f = face_column(x);
-    if (f >= 0) return f;
+    b.where = Beyond::Above;
   } else if (ex > 0.0 || ey > 0.0) {
     const double eps = 1e-9 * g_.cell_size();
     const Vec3 in{std::clamp(x.x, lo.x + eps, hi.x - eps), std::clamp(x.y, lo.y + eps, hi.y - eps),
                   std::clamp(x.z, lo.z + eps, top() - eps)};
     const int c = locate(in);
     const Side s = ex >= ey ? (x.x < lo.x ? Side::XLo : Side::XHi) : (x.y < lo.y ? Side::YLo : Side::YHi);
-    if (c >= 0 && side_face(static_cast<size_t>(c), s) >= 0) return side_face(static_cast<size_t>(c), s);
+    b.where = Beyond::Beside;
+    b.face = c < 0 ? -1 : side_face(static_cast<size_t>(c), s);
+  }
+  return b;
+}
+
+bool CouplingGeometry::beside_a_closed_side(const Vec3& x) const {
+  const Beyond b = beyond(x);
+  return b.where == Beyond::Beside && b.face < 0;
+}
+
+int CouplingGeometry::exit_face(const Vec3& x) const {
+  if (faces_.empty()) return -1;
+  const Beyond b = beyond(x);  // above the top, its column's face; beside the box, the side face next to it
+  if (b.where == Beyond::Above) {
+    const int f = face_column(x);
+    if (f >= 0) return f;
+  } else if (b.where == Beyond::Beside && b.face >= 0) {
+    return b.face;
   }
   int best = -1;  // otherwise the nearest face (rare): brute force
   double best_d2 = 0.0;

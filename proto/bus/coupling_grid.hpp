@@ -70,8 +70,21 @@ class CouplingGeometry {
   // The boundary face through which a point outside the region most likely left it: the face whose
   // column holds it, else the face nearest to it; -1 when the grid has no face.
   int exit_face(const Vec3& x) const;
+  // Whether a point outside the region lies beside it (further beyond a side than above the top) where that
+  // side is no boundary face: the box's side there lies outside the vessel, so a particle got there by
+  // leaving the vessel (a stream off a belt's end, out of a side-wall hole), not by crossing into the coarse
+  // level's part of it.
+  bool beside_a_closed_side(const Vec3& x) const;
 
  private:
+  // Where a point lies beyond the box: not at all (inside it or only below it), above the top, or beside a side
+  // (face: that side's boundary face of the cell next to the point, -1 if none).
+  struct Beyond {
+    enum Where { Not, Above, Beside } where = Not;
+    int face = -1;
+  };
+  Beyond beyond(const Vec3& x) const;
+
   CouplingGrid g_;
   std::vector<uint32_t> cells_;
   std::vector<int> face_of_cell_;
