@@ -91,10 +91,12 @@ TEST(Check, EveryShippedCasePrintsAnEstimateAndCreatesNothing) {
     EXPECT_TRUE(std::isfinite(e.particle_steps) && e.particle_steps > 0.0) << rel << ":\n" << out;
     EXPECT_TRUE(std::isfinite(e.wall_seconds) && e.wall_seconds > 0.0) << rel << ":\n" << out;
     std::printf("[check] %s: %.3g particle-steps, %.3g s\n", rel.c_str(), e.particle_steps, e.wall_seconds);
-    // every scene that measures a discharge names its outlets, none of them by [orifice]
+    // every scene that measures a discharge names its outlets, none of them by [orifice] but the belt feeder's:
+    // its slot opens into a chute (skirts and a back plate down to the belt), no hole the walls can show
     if (slurp(f).find("[[probes]]") != std::string::npos && rel.find("collision") == std::string::npos) {
       EXPECT_EQ(out.find("outlets: 0"), std::string::npos) << rel << ":\n" << out;
-      EXPECT_EQ(("\n" + slurp(f)).find("\n[orifice]"), std::string::npos) << rel;
+      if (rel != "cases/feeder/reference.toml")
+        EXPECT_EQ(("\n" + slurp(f)).find("\n[orifice]"), std::string::npos) << rel;
     }
     outputs[rel] = out;
   }
