@@ -137,8 +137,8 @@ Vec3 inside_point(const config::CouplingRegionSpec& rs, const WallSet& walls, co
     }
   if (under.empty())
     throw std::invalid_argument(rs.loc.str() + ": no cell of the region's top layer lies under the fill (a vertical "
-                                "line from each cell's centre up to an insertion's top crosses a wall, or no insertion lies over it); give `inside` = "
-                                "a point inside the vessel within the region");
+                                "line from each cell's centre up to an insertion's top crosses a wall, or no "
+                                "insertion lies over it); give `inside` = a point inside the vessel within the region");
   // The middle of the vessel's section (the cells cut by the walls see less of it from their centres).
   mid = (1.0 / static_cast<double>(under.size())) * mid;
   if (filled(mid)) return mid;
@@ -245,7 +245,8 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
     return !walls->touches(x, r) && !walls->crosses(anchor, x);
   };
   const ParticleSizes sizes = particle_sizes(cs, mt);
-  for (const auto& rs : cp.regions) cfg.regions.push_back(region_config(cs, rs, *walls, lids_closed, sizes, cfg.regions.size()));
+  for (const auto& rs : cp.regions)
+    cfg.regions.push_back(region_config(cs, rs, *walls, lids_closed, sizes, cfg.regions.size()));
   return out;
 }
 

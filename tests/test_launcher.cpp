@@ -237,9 +237,10 @@ TEST(MlcgRun, ThreeLevelHopperNestsTwoRegionsThroughTheMiddleLevel) {
 // so the planner places nothing, and the fine level's probe reads nothing. The run says so instead of reporting
 // a discharge it cannot vouch for.
 TEST(MlcgRun, ARegionThatPlacesNoFineParticleIsWarnedOfWithItsMissingMass) {
-  const fs::path cfile = mlcg::test::copy_case(kSrc + "/cases/quickstart/mlcg.toml", fresh_temp_path("outside_case"),
-                                               {{"cell_size = 0.02\n", "cell_size = 0.02\ninside = [0.035, 0.035, 0.03]\n"},
-                                                {"end = 0.6", "end = 0.3"}});
+  const fs::path cfile =
+      mlcg::test::copy_case(kSrc + "/cases/quickstart/mlcg.toml", fresh_temp_path("outside_case"),
+                            {{"cell_size = 0.02\n", "cell_size = 0.02\ninside = [0.035, 0.035, 0.03]\n"},
+                             {"end = 0.6", "end = 0.3"}});
   const fs::path dir = run_hierarchy_case(cfile.string(), "outside");
   const auto s = read_json(dir / "summary.json");
   const auto& g = s["coupling"]["regions"][0];
