@@ -252,3 +252,39 @@ TEST(NeighborList, ForcesWithAppendedRowsEqualAFreshBuilds) {
     EXPECT_LE(norm(appended.torque[i] - p.torque[i]), 1e-12 * fmax * 2e-3) << "particle " << i;
   }
 }
+
+// The overlap hash behind the insertions (the coupler's planner, the level's SSI fill, appended
+// pairs) against brute force, through several growths of its table and a refill after clear(),
+// with spheres on both sides of zero and far outside; a cell's spheres come in the order stored.
+TEST(SphereHash, FindsExactlyTheOverlapsBruteForceFindsThroughGrowthAndRefill) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-0.02, 0.02), ur(0.2e-3, 1e-3);
+  SphereHash hash(2e-3);
+  for (int round = 0; round < 2; ++round) {
+    hash.clear();
+    std::vector<Sphere> stored;
+    for (int k = 0; k < 3000; ++k) stored.push_back({{u(rng), u(rng), u(rng)}, ur(rng)});
+    stored.push_back({{1e3, -1e3, 5.0}, 1e-3});
+    for (const auto& s : stored) hash.add(s);
+    ASSERT_EQ(hash.size(), stored.size());
+    int hits = 0;
+    for (int q = 0; q < 3000; ++q) {
+      const Vec3 x = q == 0 ? Vec3{1e3, -1e3, 5.0 + 1.5e-3} : Vec3{u(rng), u(rng), u(rng)};
+      const double r = ur(rng);
+      bool brute = false;
+      for (const auto& s : stored) brute = brute || norm2(x - s.x) < (r + s.r) * (r + s.r);
+      ASSERT_EQ(hash.overlaps(x, r), brute) << "query " << q << " of round " << round;
+      hits += brute;
+    }
+    EXPECT_GT(hits, 300);  // both answers are exercised
+    EXPECT_LT(hits, 2700);
+  }
+  SphereHash one(1.0);
+  for (double z : {0.1, 0.5, 0.9}) one.add({0.5, 0.5, z}, 0.01);
+  std::vector<size_t> order;
+  one.find_near({0.5, 0.5, 0.5}, 0.01, [&](size_t k, const Vec3&, double) {
+    order.push_back(k);
+    return false;
+  });
+  EXPECT_EQ(order, (std::vector<size_t>{0, 1, 2}));
+}

@@ -17,7 +17,20 @@ constexpr double kPhiFloor = 0.4;
 }  // namespace
 
 ControllerForces::ControllerForces(const bus::CouplingGeometry& geo)
-    : geo_(geo), top_(geo.top()), depth_(geo.grid().fade_depth()), wsum_(geo.faces(), 0.0) {
+    : geo_(geo),
+      top_(geo.top()),
+      depth_(geo.grid().fade_depth()),
+      lo_(geo.box_lo()),
+      hi_(geo.box_hi()),
+      inv_h_(1.0 / geo.cell_size()),
+      wsum_(geo.faces(), 0.0) {
+  // The face of each column, looked up at the column's centre: face_column() finds the column of a point
+  // with locate()'s own arithmetic, so it returns what geo_.face_column would, without the call.
+  const auto& g = geo.grid();
+  const double h = geo.cell_size();
+  for (uint32_t j = 0; j < g.ny(); ++j)
+    for (uint32_t i = 0; i < g.nx(); ++i)
+      column_.push_back(geo.face_column(lo_ + Vec3{(i + 0.5) * h, (j + 0.5) * h, 0.0}));
   // The traction acts on the part of a face inside the walls: a face half cut by the cone carries half.
   for (size_t f = 0; f < geo.faces(); ++f) area_.push_back(geo.cell_size() * geo.cell_size() * geo.inside_area(f));
 }
@@ -51,11 +64,28 @@ void ControllerForces::set_acceleration(std::vector<double> acceleration) {
   }
 }
 
+int ControllerForces::face_column(const Vec3& x) const {
+  const auto& g = geo_.grid();
+  const double fi = std::floor((x.x - g.ox()) * inv_h_), fj = std::floor((x.y - g.oy()) * inv_h_);
+  if (!(fi >= 0 && fj >= 0 && fi < g.nx() && fj < g.ny())) return -1;
+  return column_[static_cast<uint32_t>(fi) + g.nx() * static_cast<uint32_t>(fj)];
+}
+
+double ControllerForces::depth_inside(bus::Side side, const Vec3& x) const {
+  switch (side) {
+    case bus::Side::XLo: return x.x - lo_.x;
+    case bus::Side::XHi: return hi_.x - x.x;
+    case bus::Side::YLo: return x.y - lo_.y;
+    case bus::Side::YHi: return hi_.y - x.y;
+    default: return top_ - x.z;
+  }
+}
+
 double ControllerForces::weight(const Vec3& x, double r, int& face) const {
   face = -1;
   const double s = top_ - x.z;
   if (!(s >= 0.0 && s < depth_)) return 0.0;
-  face = geo_.face_column(x);
+  face = face_column(x);
   if (face < 0) return 0.0;
   return sphere_volume(r) * (1.0 - s / depth_);
 }
@@ -90,7 +120,7 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
 
 double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, int& face) const {
   face = -1;
-  const double s = geo_.depth_inside(side, x);
+  const double s = depth_inside(side, x);
   if (!(s >= 0.0 && s < depth_)) return 0.0;
   const int c = geo_.locate(x);
   if (c < 0) return 0.0;
@@ -100,16 +130,20 @@ double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, in
 
 double ControllerForces::side_distance(const Vec3& x) const {
   double d = 1e300;
-  for (const bus::Side sd : geo_.open_sides()) d = std::min(d, geo_.depth_inside(sd, x));
+  for (const bus::Side sd : geo_.open_sides()) d = std::min(d, depth_inside(sd, x));
   return d;
 }
 
 void ControllerForces::refresh(const Particles& p, double band, size_t from) {
-  if (from == 0) near_.clear();
+  if (from == 0) {
+    near_top_.clear();
+    near_side_.clear();
+  }
   for (size_t i = from; i < p.n_local(); ++i) {
     const double s = top_ - p.x[i].z;
-    const bool near_side = !geo_.open_sides().empty() && std::fabs(side_distance(p.x[i]) - 0.5 * depth_) < 0.5 * depth_ + band;
-    if ((s > -band && s < depth_ + band) || near_side) near_.push_back(static_cast<uint32_t>(i));
+    if (s > -band && s < depth_ + band) near_top_.push_back(static_cast<uint32_t>(i));
+    if (!geo_.open_sides().empty() && std::fabs(side_distance(p.x[i]) - 0.5 * depth_) < 0.5 * depth_ + band)
+      near_side_.push_back(static_cast<uint32_t>(i));
   }
   near_valid_ = true;
 }
@@ -124,9 +158,9 @@ Vec3 ControllerForces::limited(const Vec3& F, const Vec3& v, size_t f) const {
 void ControllerForces::apply_sides(Particles& p) const {
   // An open side is pressed like the top: its traction along the inward normal, on the particles
   // within the fade depth inside it, shared by weight.
-  const size_t m = near_valid_ ? near_.size() : p.n_local();
+  const size_t m = near_valid_ ? near_side_.size() : p.n_local();
   for (size_t q = 0; q < m; ++q) {
-    const size_t i = near_valid_ ? near_[q] : q;
+    const size_t i = near_valid_ ? near_side_[q] : q;
     for (const bus::Side sd : geo_.open_sides()) {
       int f = -1;
       const double w = side_weight(p.x[i], p.radius[i], sd, f);
@@ -141,9 +175,9 @@ void ControllerForces::apply_sides(Particles& p) const {
 void ControllerForces::apply(Particles& p, const std::vector<uint32_t>* in_box) const {
   const size_t n = p.n_local();
   if (traction_on_) {
-    const size_t m = near_valid_ ? near_.size() : n;
+    const size_t m = near_valid_ ? near_top_.size() : n;
     for (size_t q = 0; q < m; ++q) {
-      const size_t i = near_valid_ ? near_[q] : q;
+      const size_t i = near_valid_ ? near_top_[q] : q;
       int f = -1;
       const double w = weight(p.x[i], p.radius[i], f);
       if (f < 0) continue;
