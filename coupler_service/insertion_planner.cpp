@@ -127,24 +127,61 @@ bool InsertionPlanner::wants_occupants(uint64_t interval) const {
   return any && (fresh || interval % 4 == 0);
 }
 
-std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<Sphere>& occupants) {
-  std::vector<Insert> out;
-  bool filled = false;  // the hash is filled on the first candidate: most intervals place nothing
+std::mt19937_64& InsertionPlanner::rng(uint64_t interval, size_t f) {
+  // Seeded on first use, not per face and interval: seeding costs more than the rest of a face that places
+  // nothing (most faces, most intervals); the stream of a face's interval is the same either way.
+  auto& g = rngs_[f];
+  if (!g) g.emplace(mix(prm_.seed ^ mix(interval * 0x100000001b3ULL + f)));
+  return *g;
+}
+
+std::vector<char> InsertionPlanner::draw_pending(uint64_t interval) {
+  // Each face's next radius, drawn as its first placement would draw it: the faces whose remainder covers
+  // it are the ones that try to place this interval.
+  std::vector<char> tries(faces_.size(), 0);
+  rngs_.resize(faces_.size());
+  for (auto& g : rngs_) g.reset();
   for (size_t f = 0; f < faces_.size(); ++f) {
     FaceState& s = faces_[f];
     if (!s.seen) continue;
-    // Seeded on first use, not per face and interval: seeding costs more than the rest of a face that places
-    // nothing (most faces, most intervals); the stream of a face's interval is the same either way.
-    std::optional<std::mt19937_64> seeded;
-    const auto rng = [&]() -> std::mt19937_64& {
-      if (!seeded) seeded.emplace(mix(prm_.seed ^ mix(interval * 0x100000001b3ULL + f)));
-      return *seeded;
-    };
+    if (s.next_radius <= 0.0) s.next_radius = draw_radius(s, rng(interval, f));
+    tries[f] = s.remainder >= mass_of(s.next_radius);
+  }
+  return tries;
+}
+
+void InsertionPlanner::fill_hash(const std::vector<Sphere>& occupants, const std::vector<char>& tries) {
+  // Only the occupants a candidate in a trying face's slab can touch: within the largest fine radius plus
+  // their own of the box around those slabs. The overlap tests answer as with every occupant in the hash.
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (size_t f = 0; f < faces_.size(); ++f)
+    if (tries[f]) {
+      Vec3 a, b;
+      geo_.face_slab(f, prm_.insert_depth, a, b);
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], a[k]);
+        hi[k] = std::max(hi[k], b[k]);
+      }
+    }
+  const double reach = prm_.radius_bins.back() / prm_.ratio;
+  hash_.clear();
+  for (const auto& o : occupants)
+    if (bus::near_box(o.x, lo, hi, reach + o.r)) hash_.add(o);
+}
+
+std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<Sphere>& occupants) {
+  std::vector<Insert> out;
+  const std::vector<char> tries = draw_pending(interval);
+  if (std::find(tries.begin(), tries.end(), 1) == tries.end()) return out;  // most intervals place nothing
+  fill_hash(occupants, tries);
+  for (size_t f = 0; f < faces_.size(); ++f) {
+    if (!tries[f]) continue;
+    FaceState& s = faces_[f];
     Vec3 slab_lo, slab_hi;
     geo_.face_slab(f, prm_.insert_depth, slab_lo, slab_hi);
     const int axis = geo_.normal_axis(f);
     for (;;) {
-      if (s.next_radius <= 0.0) s.next_radius = draw_radius(s, rng());
+      if (s.next_radius <= 0.0) s.next_radius = draw_radius(s, rng(interval, f));
       const double r = s.next_radius, m = mass_of(r);
       if (s.remainder < m) break;
       Vec3 lo = slab_lo, hi = slab_hi;  // a whole sphere inside the slab along the normal
@@ -152,15 +189,11 @@ std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<
       hi[axis] -= r;
       if (hi[axis] < lo[axis]) throw std::runtime_error("insertion planner: insert_depth is smaller than a fine diameter");
       std::uniform_real_distribution<double> ux(lo.x, hi.x), uy(lo.y, hi.y), uz(lo.z, hi.z);
-      if (!filled) {
-        hash_.clear();
-        for (const auto& o : occupants) hash_.add(o);
-        filled = true;
-      }
       bool placed = false;
       const int attempts = s.short_streak > 0 ? prm_.attempts_when_full : prm_.attempts;
       for (int a = 0; a < attempts && !placed; ++a) {
-        const Vec3 x{ux(rng()), uy(rng()), uz(rng())};
+        auto& g = rng(interval, f);
+        const Vec3 x{ux(g), uy(g), uz(g)};
         if (hash_.overlaps(x, r) || !fits_(s.anchor, x, r)) continue;
         hash_.add(x, r);
         out.push_back({x, r, s.velocity, static_cast<int>(f)});

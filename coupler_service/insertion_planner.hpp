@@ -20,6 +20,8 @@
 // the plan depends on the inputs and the seed only.
 #include <cstdint>
 #include <functional>
+#include <optional>
+#include <random>
 #include <vector>
 
 #include "bus/coupling_grid.hpp"
@@ -92,6 +94,9 @@ class InsertionPlanner {
 
  private:
   template <class Rng> double draw_radius(const FaceState& f, Rng& rng) const;
+  std::mt19937_64& rng(uint64_t interval, size_t f);  // face f's generator for this interval's plan
+  std::vector<char> draw_pending(uint64_t interval);   // per face: whether it tries to place this interval
+  void fill_hash(const std::vector<Sphere>& occupants, const std::vector<char>& tries);
   bool anchored_on(size_t f, const Vec3& a) const;  // a crossing point mean may serve face f as its anchor
   bool reachable(const Vec3& a) const;              // ... and lies inside the walls, seen from the inside point
 
@@ -99,7 +104,8 @@ class InsertionPlanner {
   PlannerParams prm_;
   FitsGeometry fits_;
   std::vector<FaceState> faces_;
-  SphereHash hash_;  // the slab's occupants and this plan's particles; reused from plan to plan
+  SphereHash hash_;  // the slabs' occupants and this plan's particles; reused from plan to plan
+  std::vector<std::optional<std::mt19937_64>> rngs_;  // per face, seeded on first use in a plan
 };
 
 }  // namespace mlcg::coupling

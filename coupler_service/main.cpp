@@ -13,6 +13,7 @@
 #include "bus/case_hash.hpp"
 #include "bus/checkpoint_file.hpp"
 #include "config/case_parser.hpp"
+#include "core/heap.hpp"
 #include "from_case.hpp"
 #include "io/atomic_file.hpp"
 #include "service.hpp"
@@ -37,6 +38,7 @@ std::shared_ptr<const mlcg::bus::CouplerCheckpoint> read_resume(const std::strin
 }  // namespace
 
 int main(int argc, char** argv) {
+  mlcg::keep_freed_memory();
   CLI::App app{"coupler_service: the MLCG coupler of a multi-level case"};
   std::string case_file, out_dir, endpoint;
   uint64_t max_intervals = UINT64_MAX;
