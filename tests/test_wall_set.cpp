@@ -106,4 +106,39 @@ TEST(WallSetTouches, SphereBeyondJunctionEdgeTouchesOnlyWhenCloseToAWall) {
 }
 
 }  // namespace
+// A mesh moved as a whole is where its motion takes it: a small triangle 3 cm from a vertical axis, the axis
+// moving too, after a quarter turn. touches, overlap, crosses and the candidates all see it there and no longer
+// where it was read; its surface's velocity is the rigid motion's.
+TEST(WallSetRigidMotion, AMeshIsWhereItsTranslationAndTurnTakeIt) {
+  const double a = 1e-3;
+  auto mesh = std::make_shared<const TriangleMesh>(
+      std::vector<RawTriangle>{{{0.03, 0.0, 0.0}, {0.03 + a, 0.0, 0.0}, {0.03, a, 0.0}}}, "tri");
+  WallSet ws;
+  ws.add_mesh("tri", 0, mesh);
+  const Vec3 u{0.01, 0.0, 0.02}, spin{0.0, 0.0, M_PI / 2.0}, c{0.0, 0.0, 0.0};
+  ws.set_rigid_motion(0, u, spin, c);
+  ws.set_time(1.0);
+  // A quarter turn about z takes (x, y) to (-y, x); then the shift u t.
+  const Vec3 corner = Vec3{0.0, 0.03, 0.0} + u, inside = Vec3{-0.2 * a, 0.03 + 0.2 * a, 0.0} + u;
+  EXPECT_TRUE(ws.touches(inside + Vec3{0.0, 0.0, 0.5e-4}, 1e-4));
+  EXPECT_NEAR(ws.overlap(inside + Vec3{0.0, 0.0, 0.5e-4}, 1e-4), 0.5e-4, 1e-12);
+  EXPECT_FALSE(ws.touches(Vec3{0.03 + 0.2 * a, 0.2 * a, 0.0}, 1e-4)) << "still where it was read";
+  EXPECT_TRUE(ws.crosses(inside + Vec3{0.0, 0.0, 1e-3}, inside - Vec3{0.0, 0.0, 1e-3}));
+  EXPECT_FALSE(ws.crosses(corner + Vec3{0.5 * a, 0.5 * a, 1e-3}, corner + Vec3{0.5 * a, 0.5 * a, -1e-3}));
+  const Vec3 v = ws.velocity_at(0, corner);
+  EXPECT_NEAR(norm(v - (u + cross(spin, corner - (c + u)))), 0.0, 1e-15);
+  Particles p;
+  ParticleInit pi;
+  pi.radius = 1e-4;
+  pi.density = 1000.0;
+  pi.x = inside + Vec3{0.0, 0.0, 2e-4};
+  p.add(pi);
+  ws.build_candidates(p, 2e-4, false);
+  EXPECT_EQ(ws.near.size(), 1u) << "its candidate is the moved triangle";
+  EXPECT_DOUBLE_EQ(ws.moved_since_build(), 0.0);
+  ws.set_time(1.5);
+  // At most |u| + |spin| times the farthest bounding-box corner from the axis, per second.
+  EXPECT_NEAR(ws.moved_since_build(), 0.5 * (norm(u) + norm(spin) * norm(Vec3{0.03 + a, a, 0.0})), 1e-15);
+}
+
 }  // namespace mlcg

@@ -69,7 +69,7 @@ namespace {
 // A wall's surface motion: a plane or mesh slides along itself (a belt), a surface of revolution turns about
 // its own axis (a drum); either way the geometry stays where it is. A mesh's velocity is checked against its
 // triangles when it is read (scene/walls_from_case.cpp).
-void read_wall_motion(const Table& t, WallSpec& w) {
+void read_wall_motion(const Table& t, WallSpec& w, size_t levels) {
   w.surface_velocity = t.value<Vec3>("surface_velocity");
   w.angular_velocity = t.value<double>("angular_velocity");
   const bool flat = w.type == WallType::Plane || w.type == WallType::Mesh;
@@ -81,6 +81,19 @@ void read_wall_motion(const Table& t, WallSpec& w) {
   t.check("surface_velocity", flat || w.surface_velocity == Vec3{},
           "a " + std::string(w.type == WallType::Cylinder ? "cylinder" : w.type == WallType::Cone ? "cone" : "disk") +
               " moves by turning about its axis: give angular_velocity in rad/s instead");
+  w.move_velocity = t.value<Vec3>("move_velocity");
+  w.move_angular_velocity = t.value<Vec3>("move_angular_velocity");
+  w.move_center = t.value<Vec3>("move_center");
+  const char* const key = w.move_velocity == Vec3{} ? "move_angular_velocity" : "move_velocity";
+  t.check(key, !w.moves_rigidly() || w.type == WallType::Mesh,
+          "only a mesh moves as a whole; a plane, cylinder, cone or disk moves its surface only (surface_velocity, "
+          "angular_velocity), or give the wall as a mesh");
+  t.check(key, !w.moves_rigidly() || !w.moving(),
+          "the mesh has surface_velocity too; give either the surface's motion (the geometry in place) or the "
+          "whole mesh's");
+  t.check(key, !w.moves_rigidly() || levels <= 1,
+          "a case of " + std::to_string(levels) + " levels cannot move a mesh yet: the coupler's insertion tests "
+          "the walls where they stand at the start; run the scene as one level");
   if (w.type == WallType::Plane) {
     const Vec3 n = w.normal / norm(w.normal);
     const double along = dot(w.surface_velocity, n);
@@ -153,7 +166,7 @@ void read_walls(const Table& root, CaseSpec& spec, Names& names) {
         break;
       }
     }
-    read_wall_motion(t, w);
+    read_wall_motion(t, w, spec.levels.size());
     w.loc = t.loc();
     spec.walls.push_back(w);
   }

@@ -95,6 +95,10 @@ struct WallSpec {                  // [[walls]]
   Vec3 surface_velocity;           // surface_velocity [m/s]
   double angular_velocity = 0.0;   // angular_velocity [rad/s]
   bool moving() const { return angular_velocity != 0.0 || !(surface_velocity == Vec3{}); }
+  // A mesh moved rigidly from t = 0 (its geometry moves): at move_velocity, turning at move_angular_velocity
+  // [rad/s, along the axis, right-handed] about the axis through move_center, which moves along.
+  Vec3 move_velocity, move_angular_velocity, move_center;
+  bool moves_rigidly() const { return !(move_velocity == Vec3{}) || !(move_angular_velocity == Vec3{}); }
   // The largest radius of a surface of revolution (0 for a plane or mesh): where a turning wall is fastest.
   double outer_radius() const { return std::max({radius, radius_bottom, radius_top}); }
   // The fastest speed of its surface [m/s]: a belt's, or a turning wall's at its outer radius.

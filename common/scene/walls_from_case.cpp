@@ -82,7 +82,9 @@ WallSet walls_from_case(const config::CaseSpec& cs, const MaterialTable& mt) {
     if (w.type != config::WallType::Mesh) continue;
     auto mesh = mesh_from_case(cs, w);
     if (w.moving()) check_belt_mesh(w, i, *mesh);
-    set_motion(walls.add_mesh(w.name, mt.index_of(w.material), std::move(mesh)), w);
+    const int k = walls.add_mesh(w.name, mt.index_of(w.material), std::move(mesh));
+    set_motion(k, w);
+    if (w.moves_rigidly()) walls.set_rigid_motion(static_cast<size_t>(k), w.move_velocity, w.move_angular_velocity, w.move_center);
   }
   return walls;
 }

@@ -56,11 +56,21 @@ std::vector<ParticleKind> merge_kinds(const std::vector<ParticleKind>& kinds) {
 
 namespace {
 
-// The fastest surface of a moving wall (a belt's speed, a drum's rim speed) and its wall's name.
+// The fastest surface of a moving wall (a belt's speed, a drum's rim speed, a moving mesh's speed out to the
+// domain's farthest corner from its axis) and its wall's name.
 std::pair<double, std::string> fastest_wall_surface(const config::CaseSpec& cs) {
   std::pair<double, std::string> out{0.0, ""};
   for (const auto& w : cs.walls) {
-    const double v = w.surface_speed();
+    double v = w.surface_speed();
+    if (w.moves_rigidly()) {
+      double reach = 0.0;
+      for (int c = 0; c < 8; ++c) {
+        const Vec3 corner{(c & 1) ? cs.domain.max.x : cs.domain.min.x, (c & 2) ? cs.domain.max.y : cs.domain.min.y,
+                          (c & 4) ? cs.domain.max.z : cs.domain.min.z};
+        reach = std::max(reach, norm(corner - w.move_center));
+      }
+      v = norm(w.move_velocity) + norm(w.move_angular_velocity) * reach;
+    }
     if (v > out.first) out = {v, w.name};
   }
   return out;

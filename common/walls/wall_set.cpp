@@ -41,6 +41,51 @@ void WallSet::set_motion(size_t w, const Vec3& u, const Vec3& spin, const Vec3& 
   in.moving = !(u == Vec3{}) || !(spin == Vec3{});
 }
 
+void WallSet::set_rigid_motion(size_t w, const Vec3& u, const Vec3& spin, const Vec3& center) {
+  Info& in = info_[w];
+  if (!in.is_mesh) throw std::logic_error("WallSet: only a mesh moves rigidly");
+  in.rigid = in.moving = true;
+  in.move_velocity = u;
+  in.move_spin = spin;
+  in.move_center = center;
+  const TriangleMesh& m = *meshes_[static_cast<size_t>(in.mesh)];
+  in.reach = 0.0;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 corner{(c & 1) ? m.bbox_max().x : m.bbox_min().x, (c & 2) ? m.bbox_max().y : m.bbox_min().y,
+                      (c & 4) ? m.bbox_max().z : m.bbox_min().z};
+    in.reach = std::max(in.reach, norm(corner - center));
+  }
+  rigid_ = true;
+  set_time(time_);
+}
+
+void WallSet::set_time(double t) {
+  time_ = t;
+  for (Info& in : info_) {
+    if (!in.rigid) continue;
+    // Rodrigues: R turns by |spin| t about spin's direction.
+    const double w = norm(in.move_spin), a = w * t;
+    const Vec3 k = w > 0.0 ? in.move_spin * (1.0 / w) : Vec3{};
+    const double c = std::cos(a), s = std::sin(a), C = 1.0 - c;
+    in.rot[0] = {c + k.x * k.x * C, k.x * k.y * C - k.z * s, k.x * k.z * C + k.y * s};
+    in.rot[1] = {k.y * k.x * C + k.z * s, c + k.y * k.y * C, k.y * k.z * C - k.x * s};
+    in.rot[2] = {k.z * k.x * C - k.y * s, k.z * k.y * C + k.x * s, c + k.z * k.z * C};
+    const Vec3 centre = in.move_center + in.move_velocity * t;
+    in.shift = centre - in.turn(in.move_center);
+    in.surface_velocity = in.move_velocity;
+    in.spin = in.move_spin;
+    in.spin_center = centre;
+  }
+}
+
+double WallSet::moved_since_build() const {
+  double d = 0.0;
+  const double dt = std::fabs(time_ - build_time_);
+  for (const Info& in : info_)
+    if (in.rigid) d = std::max(d, (norm(in.move_velocity) + norm(in.move_spin) * in.reach) * dt);
+  return d;
+}
+
 int WallSet::find(const std::string& name) const {
   for (size_t w = 0; w < info_.size(); ++w)
     if (info_[w].name == name) return static_cast<int>(w);
@@ -126,7 +171,7 @@ bool WallSet::touches(const Vec3& x, double r) const {
     if (analytic_[static_cast<size_t>(k)].closest(x, g) && g.dist < r) return true;
   }
   for (const auto& in : info_)
-    if (in.is_mesh && in.active && meshes_[static_cast<size_t>(in.mesh)]->any_within(x, r)) return true;
+    if (in.is_mesh && in.active && meshes_[static_cast<size_t>(in.mesh)]->any_within(in.to_body(x), r)) return true;
   return false;
 }
 
@@ -141,8 +186,9 @@ double WallSet::overlap(const Vec3& x, double r) const {
   for (const auto& in : info_) {
     if (!in.is_mesh || !in.active) continue;
     const TriangleMesh& m = *meshes_[static_cast<size_t>(in.mesh)];
-    m.query(x, r, tris);
-    for (int32_t t : tris) worst = std::max(worst, r - m.distance(t, x));
+    const Vec3 xb = in.to_body(x);
+    m.query(xb, r, tris);
+    for (int32_t t : tris) worst = std::max(worst, r - m.distance(t, xb));
   }
   return worst;
 }
@@ -163,15 +209,16 @@ bool WallSet::crosses(const Vec3& a, const Vec3& b) const {
   // insertion's vertical segments a thin column, where a sphere about the midpoint held most of a silo.
   thread_local std::vector<int32_t> tris;  // insertion asks this for every candidate: no allocation per call
   const Vec3 margin{1e-9 * len, 1e-9 * len, 1e-9 * len};
-  const Vec3 lo = Vec3{std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)} - margin;
-  const Vec3 hi = Vec3{std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)} + margin;
   for (const auto& in : info_) {
     if (!in.is_mesh || !in.active) continue;
+    const Vec3 ab = in.to_body(a), bb = in.to_body(b);  // a rigid motion keeps a segment straight
+    const Vec3 lo = Vec3{std::min(ab.x, bb.x), std::min(ab.y, bb.y), std::min(ab.z, bb.z)} - margin;
+    const Vec3 hi = Vec3{std::max(ab.x, bb.x), std::max(ab.y, bb.y), std::max(ab.z, bb.z)} + margin;
     const TriangleMesh& m = *meshes_[static_cast<size_t>(in.mesh)];
     m.query_box(lo, hi, tris);
     for (int32_t t : tris) {
       const auto v = m.triangle_vertices(t);
-      if (segment_hits_triangle(a, b, m.vertex(v[0]), m.vertex(v[1]), m.vertex(v[2]))) return true;
+      if (segment_hits_triangle(ab, bb, m.vertex(v[0]), m.vertex(v[1]), m.vertex(v[2]))) return true;
     }
   }
   return false;
@@ -182,6 +229,7 @@ void WallSet::build_candidates(const Particles& p, double skin, bool with_histor
   prim.clear();
   near.clear();
   hist.clear();
+  build_time_ = time_;
   append_candidates(p, 0, skin, with_history);
 }
 
@@ -198,7 +246,7 @@ void WallSet::append_candidates(const Particles& p, size_t first_new, double ski
     for (const auto& in : info_) {
       if (!in.is_mesh || !in.active) continue;
       scratch_.clear();
-      meshes_[static_cast<size_t>(in.mesh)]->query(p.x[i], reach, scratch_);
+      meshes_[static_cast<size_t>(in.mesh)]->query(in.to_body(p.x[i]), reach, scratch_);
       for (int32_t t : scratch_) prim.push_back(in.prim_begin + t);
     }
     first.push_back(static_cast<int32_t>(prim.size()));

@@ -34,11 +34,25 @@ class WallSet {
     bool is_mesh = false;
     int32_t prim_begin = 0, prim_end = 0;  // primitive id range
     int mesh = -1;                         // index into meshes() when is_mesh
-    // The surface's motion, the geometry in place: a velocity along it, or a turn about an axis.
+    // The surface's motion: a velocity along it, or a turn about an axis (velocity_at). For a mesh that
+    // moves rigidly these follow its motion (set_time); otherwise the geometry stays in place.
     bool moving = false;
     Vec3 surface_velocity;
     Vec3 spin;         // angular velocity [rad/s] about the axis through spin_center
     Vec3 spin_center;
+    // A mesh moved rigidly: world = R body + shift, body being the mesh as read.
+    bool rigid = false;
+    Vec3 rot[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};  // the rows of R
+    Vec3 shift;
+    Vec3 move_velocity, move_spin, move_center;  // of the motion from t = 0
+    double reach = 0.0;                          // the farthest point of the mesh from move_center
+    Vec3 to_body(const Vec3& x) const {
+      if (!rigid) return x;
+      const Vec3 d = x - shift;
+      return rot[0] * d.x + rot[1] * d.y + rot[2] * d.z;  // R^T d
+    }
+    Vec3 turn(const Vec3& b) const { return {dot(rot[0], b), dot(rot[1], b), dot(rot[2], b)}; }  // R b
+    Vec3 to_world(const Vec3& b) const { return turn(b) + shift; }
   };
 
   int add_analytic(const std::string& name, int material, const AnalyticWall& w);
@@ -51,6 +65,14 @@ class WallSet {
   // Wall w's surface slides at velocity u and turns at spin (rad/s, a vector along the axis) about the axis
   // through center; all zero: at rest.
   void set_motion(size_t w, const Vec3& u, const Vec3& spin, const Vec3& center);
+  // Mesh w moves rigidly from t = 0: at velocity u, turning at spin (rad/s, along the axis) about the axis
+  // through center, which moves along at u.
+  void set_rigid_motion(size_t w, const Vec3& u, const Vec3& spin, const Vec3& center);
+  // Places the rigidly moving meshes where they are at time t (cheap: each is one pose).
+  void set_time(double t);
+  bool has_rigid() const { return rigid_; }
+  // An upper bound on how far a point of a rigidly moving mesh has moved since the candidates were built.
+  double moved_since_build() const;
   // The velocity of wall w's surface at a point on it (zero for a wall at rest).
   Vec3 velocity_at(size_t w, const Vec3& point) const {
     const Info& in = info_[w];
@@ -96,6 +118,8 @@ class WallSet {
   std::vector<std::shared_ptr<const TriangleMesh>> meshes_;
   int32_t next_prim_ = 0;
   std::vector<int32_t> scratch_;
+  bool rigid_ = false;
+  double time_ = 0.0, build_time_ = 0.0;
 };
 
 }  // namespace mlcg

@@ -119,9 +119,15 @@ void wall_forces(Particles& p, WallSet& ws, const MaterialTable& mt, double dt, 
         tris.push_back(ws.prim[static_cast<size_t>(stop)] - info.prim_begin);
         ++stop;
       }
-      const int nc = info.active ? ws.mesh(info.mesh).contacts(xi, ri, tris.data(), static_cast<int>(tris.size()),
-                                                               mc, kMaxMeshContacts)
+      // A rigidly moving mesh: the contacts are found in its own frame, then turned back.
+      const int nc = info.active ? ws.mesh(info.mesh).contacts(info.to_body(xi), ri, tris.data(),
+                                                               static_cast<int>(tris.size()), mc, kMaxMeshContacts)
                                  : 0;
+      if (info.rigid)
+        for (int q = 0; q < nc; ++q) {
+          mc[q].point = info.to_world(mc[q].point);
+          mc[q].normal = info.turn(mc[q].normal);
+        }
       if constexpr (Model::has_history) detail::hand_over_mesh_history<kMaxMeshContacts>(ws.hist.data() + k, stop - k, mc, nc);
       const PairCoeffs& c = mt.pair(mi, info.material);
       for (int q = 0; q < nc; ++q) {

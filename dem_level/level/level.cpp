@@ -33,6 +33,7 @@ bool Level::stopping() const { return interrupted_ || stop_requested(); }
 
 void Level::pre_step() {
   const double t = time();
+  if (state_.walls.has_rigid()) state_.walls.set_time(t);  // where this step's insertions meet the walls
   if (!scene_.events.empty()) {
     PhaseTimer timer(out_.times.measure);
     check_events(t);
@@ -353,7 +354,13 @@ void Level::step(bool may_owe) {
     kick_owed_ = false;
     sum = fh.checksum;
     owed_sum = fh.owed_checksum;
-    const bool moved = fh.max_disp2 > 0.25 * stepper_.skin * stepper_.skin;
+    bool moved = fh.max_disp2 > 0.25 * stepper_.skin * stepper_.skin;
+    if (state_.walls.has_rigid()) {
+      // The forces act at the step's end: a moving mesh is there, and the candidates hold while the particles and
+      // the mesh together have closed no more than half the skin.
+      state_.walls.set_time(time() + physics_.dt);
+      moved = std::sqrt(fh.max_disp2) + state_.walls.moved_since_build() > 0.5 * stepper_.skin;
+    }
     rebuild_now = rebuild_now || !ref || moved;
     // The inserted particles have no reference position, so how far the others moved is unknown then: some of these
     // rebuilds the displacement would have asked for a few steps later.

@@ -175,9 +175,13 @@ void print_outlets(const config::CaseSpec& cs, const config::OutletScan& scan) {
   for (const auto& n : scan.notes) std::printf("  not an outlet: %s\n", n.c_str());
 }
 
-// The walls whose surfaces move (belts, drums), with the speed a particle touching them meets.
+// The walls that move (belts, drums, moving meshes), with the speed a particle touching them meets.
 void print_moving_walls(const config::CaseSpec& cs) {
   for (const auto& w : cs.walls) {
+    if (w.moves_rigidly())
+      std::printf("wall '%s' moves as a whole from t = 0: at %s m/s, turning at %s rad/s about the axis through %s\n",
+                  w.name.c_str(), config::vec_text(w.move_velocity).c_str(),
+                  config::vec_text(w.move_angular_velocity).c_str(), config::vec_text(w.move_center).c_str());
     if (!w.moving()) continue;
     if (w.angular_velocity != 0.0) {
       const double rim = w.outer_radius();
