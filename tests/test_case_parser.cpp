@@ -289,7 +289,7 @@ TEST(CaseParserErrors, WallMotionThatCannotBe) {
   expect_error(with("top = 0.5", "surface_velocity = [0.1, 0, 0]"), "walls[0].surface_velocity",
                "a cylinder moves by turning about its axis: give angular_velocity");
   expect_error(with("offset = [0, 0, 0.1]", "angular_velocity = 2.0"), "walls[4].angular_velocity",
-               "a mesh cannot turn yet");
+               "turn the whole mesh with move_angular_velocity");
 }
 
 TEST(CaseParserErrors, WrongTypeStringForNumber) {

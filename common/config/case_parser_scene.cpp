@@ -76,8 +76,8 @@ void read_wall_motion(const Table& t, WallSpec& w, size_t levels) {
   t.check("angular_velocity", flat ? w.angular_velocity == 0.0 : true,
           w.type == WallType::Plane
               ? "a plane has no axis of its own to turn about; give surface_velocity for a belt"
-              : "a mesh cannot turn yet: only a cylinder, cone or disk turns about its axis (a drum); give "
-                "surface_velocity for a belt");
+              : "a mesh does not turn its surface in place (only a cylinder, cone or disk does); turn the whole "
+                "mesh with move_angular_velocity and move_center, or give surface_velocity for a belt");
   t.check("surface_velocity", flat || w.surface_velocity == Vec3{},
           "a " + std::string(w.type == WallType::Cylinder ? "cylinder" : w.type == WallType::Cone ? "cone" : "disk") +
               " moves by turning about its axis: give angular_velocity in rad/s instead");
