@@ -223,11 +223,19 @@ RunResult run_hierarchy(const std::vector<double>& alphas, uint64_t intervals, c
   RunResult run;
   run.levels.resize(alphas.size());
   std::vector<std::thread> threads;
+  // The intruder has its say before the levels register: a run of scripted levels can end within a few of its
+  // round trips, and its later messages would then find no coupler.
+  std::atomic<bool> intruded{!intruder};
+  if (intruder)
+    threads.emplace_back([&] {
+      intruder(ep);
+      intruded = true;
+    });
   for (size_t l = 0; l < alphas.size(); ++l)
     threads.emplace_back([&, l] {
+      while (!intruded) std::this_thread::sleep_for(milliseconds(1));
       run.levels[l] = scripted_level(ep, cfg, l, "c0ffee", intervals, l == silent_level ? 3 : UINT64_MAX);
     });
-  if (intruder) threads.emplace_back([&] { intruder(ep); });
   run.code = service.run();
   run.error = service.error();
   for (auto& t : threads) t.join();
