@@ -2,6 +2,7 @@
 // Small 3-vector for the hot loops. Plain aggregate of three doubles so that an
 // array of Vec3 is a contiguous array of doubles (x0 y0 z0 x1 ...), which keeps
 // per-field arrays cache-friendly and lets the compiler vectorise the integrator.
+#include <algorithm>
 #include <cmath>
 
 namespace mlcg {
@@ -35,6 +36,11 @@ constexpr double norm2(const Vec3& a) { return dot(a, a); }
 inline double norm(const Vec3& a) { return std::sqrt(norm2(a)); }
 inline Vec3 normalized(const Vec3& a) { return a / norm(a); }
 inline bool finite(const Vec3& a) { return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z); }
+// The distance from p to the farthest corner of the box [lo, hi]: how far a body in the box reaches from p.
+inline double farthest_corner(const Vec3& lo, const Vec3& hi, const Vec3& p) {
+  const Vec3 d{std::max(p.x - lo.x, hi.x - p.x), std::max(p.y - lo.y, hi.y - p.y), std::max(p.z - lo.z, hi.z - p.z)};
+  return norm(d);
+}
 
 // Three floats: storage for state that single precision represents well enough and that is large
 // (the tangential overlap of every listed pair: half the bytes to stream each step). Arithmetic

@@ -62,15 +62,9 @@ std::pair<double, std::string> fastest_wall_surface(const config::CaseSpec& cs) 
   std::pair<double, std::string> out{0.0, ""};
   for (const auto& w : cs.walls) {
     double v = w.surface_speed();
-    if (w.moves_rigidly()) {
-      double reach = 0.0;
-      for (int c = 0; c < 8; ++c) {
-        const Vec3 corner{(c & 1) ? cs.domain.max.x : cs.domain.min.x, (c & 2) ? cs.domain.max.y : cs.domain.min.y,
-                          (c & 4) ? cs.domain.max.z : cs.domain.min.z};
-        reach = std::max(reach, norm(corner - w.move_center));
-      }
-      v = norm(w.move_velocity) + norm(w.move_angular_velocity) * reach;
-    }
+    if (w.moves_rigidly())
+      v = norm(w.move_velocity) +
+          norm(w.move_angular_velocity) * farthest_corner(cs.domain.min, cs.domain.max, w.move_center);
     if (v > out.first) out = {v, w.name};
   }
   return out;

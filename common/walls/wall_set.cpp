@@ -49,12 +49,7 @@ void WallSet::set_rigid_motion(size_t w, const Vec3& u, const Vec3& spin, const 
   in.move_spin = spin;
   in.move_center = center;
   const TriangleMesh& m = *meshes_[static_cast<size_t>(in.mesh)];
-  in.reach = 0.0;
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 corner{(c & 1) ? m.bbox_max().x : m.bbox_min().x, (c & 2) ? m.bbox_max().y : m.bbox_min().y,
-                      (c & 4) ? m.bbox_max().z : m.bbox_min().z};
-    in.reach = std::max(in.reach, norm(corner - center));
-  }
+  in.reach = farthest_corner(m.bbox_min(), m.bbox_max(), center);
   rigid_ = true;
   set_time(time_);
 }

@@ -17,20 +17,7 @@ constexpr double kPhiFloor = 0.4;
 }  // namespace
 
 ControllerForces::ControllerForces(const bus::CouplingGeometry& geo)
-    : geo_(geo),
-      top_(geo.top()),
-      depth_(geo.grid().fade_depth()),
-      lo_(geo.box_lo()),
-      hi_(geo.box_hi()),
-      inv_h_(1.0 / geo.cell_size()),
-      wsum_(geo.faces(), 0.0) {
-  // The face of each column, looked up at the column's centre: face_column() finds the column of a point
-  // with locate()'s own arithmetic, so it returns what geo_.face_column would, without the call.
-  const auto& g = geo.grid();
-  const double h = geo.cell_size();
-  for (uint32_t j = 0; j < g.ny(); ++j)
-    for (uint32_t i = 0; i < g.nx(); ++i)
-      column_.push_back(geo.face_column(lo_ + Vec3{(i + 0.5) * h, (j + 0.5) * h, 0.0}));
+    : geo_(geo), top_(geo.top()), depth_(geo.grid().fade_depth()), wsum_(geo.faces(), 0.0) {
   // The traction acts on the part of a face inside the walls: a face half cut by the cone carries half.
   for (size_t f = 0; f < geo.faces(); ++f) area_.push_back(geo.cell_size() * geo.cell_size() * geo.inside_area(f));
 }
@@ -64,28 +51,11 @@ void ControllerForces::set_acceleration(std::vector<double> acceleration) {
   }
 }
 
-int ControllerForces::face_column(const Vec3& x) const {
-  const auto& g = geo_.grid();
-  const double fi = std::floor((x.x - g.ox()) * inv_h_), fj = std::floor((x.y - g.oy()) * inv_h_);
-  if (!(fi >= 0 && fj >= 0 && fi < g.nx() && fj < g.ny())) return -1;
-  return column_[static_cast<uint32_t>(fi) + g.nx() * static_cast<uint32_t>(fj)];
-}
-
-double ControllerForces::depth_inside(bus::Side side, const Vec3& x) const {
-  switch (side) {
-    case bus::Side::XLo: return x.x - lo_.x;
-    case bus::Side::XHi: return hi_.x - x.x;
-    case bus::Side::YLo: return x.y - lo_.y;
-    case bus::Side::YHi: return hi_.y - x.y;
-    default: return top_ - x.z;
-  }
-}
-
 double ControllerForces::weight(const Vec3& x, double r, int& face) const {
   face = -1;
   const double s = top_ - x.z;
   if (!(s >= 0.0 && s < depth_)) return 0.0;
-  face = face_column(x);
+  face = geo_.face_column(x);
   if (face < 0) return 0.0;
   return sphere_volume(r) * (1.0 - s / depth_);
 }
@@ -120,7 +90,7 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
 
 double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, int& face) const {
   face = -1;
-  const double s = depth_inside(side, x);
+  const double s = geo_.depth_inside(side, x);
   if (!(s >= 0.0 && s < depth_)) return 0.0;
   const int c = geo_.locate(x);
   if (c < 0) return 0.0;
@@ -130,7 +100,7 @@ double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, in
 
 double ControllerForces::side_distance(const Vec3& x) const {
   double d = 1e300;
-  for (const bus::Side sd : geo_.open_sides()) d = std::min(d, depth_inside(sd, x));
+  for (const bus::Side sd : geo_.open_sides()) d = std::min(d, geo_.depth_inside(sd, x));
   return d;
 }
 

@@ -51,13 +51,8 @@ class ControllerForces {
   void apply_sides(Particles& p) const;
   Vec3 limited(const Vec3& F, const Vec3& v, size_t f) const;  // without the part beyond the speed limit
   double side_distance(const Vec3& x) const;                   // to the nearest open side, inward
-  double depth_inside(bus::Side side, const Vec3& x) const;    // geo_.depth_inside, from the cached box
-  int face_column(const Vec3& x) const;                        // geo_.face_column, from the column table
   bus::CouplingGeometry geo_;
   double top_ = 0.0, depth_ = 0.0;
-  Vec3 lo_, hi_;                // the grid's box
-  double inv_h_ = 0.0;          // 1 / cell size, as geo_.locate computes it
-  std::vector<int> column_;     // per column (i + nx j): its top face or -1
   std::vector<double> area_;  // per face: its area inside the walls [m^2]
   std::vector<double> traction_, vmax_, wsum_;
   std::vector<Vec3> accel_;

@@ -56,11 +56,17 @@ CouplingGeometry::CouplingGeometry(const CouplingGrid& g) : g_(g) {
   };
   fractions(g.cell_inside(), cells_.size(), "cell_inside");
   fractions(g.face_inside(), faces_.size(), "face_inside");
-}
-
-Vec3 CouplingGeometry::box_hi() const {
+  // The per-particle look-ups (the traction every step) read these instead of recomputing them.
   const double h = g_.cell_size();
-  return origin() + Vec3{g_.nx() * h, g_.ny() * h, g_.nz() * h};
+  hi_ = origin() + Vec3{g_.nx() * h, g_.ny() * h, g_.nz() * h};
+  inv_h_ = 1.0 / h;
+  // Each column's top face, found at the column's centre with locate(): face_column() finds a point's column
+  // with locate()'s own arithmetic, so it answers as locate() at the top layer would.
+  for (uint32_t j = 0; j < g_.ny(); ++j)
+    for (uint32_t i = 0; i < g_.nx(); ++i) {
+      const int c = locate(origin() + Vec3{(i + 0.5) * h, (j + 0.5) * h, top() - 0.5 * h - g_.oz()});
+      column_.push_back(c < 0 ? -1 : face_of_cell_[static_cast<size_t>(c)]);
+    }
 }
 
 Vec3 CouplingGeometry::cell_lo(size_t c) const {
@@ -109,26 +115,25 @@ void CouplingGeometry::cell_slab(size_t c, Side s, double depth, Vec3& lo, Vec3&
   }
 }
 
-double CouplingGeometry::depth_inside(Side s, const Vec3& x) const {
-  const Vec3 lo = box_lo(), hi = box_hi();
-  switch (s) {
-    case Side::XLo: return x.x - lo.x;
-    case Side::XHi: return hi.x - x.x;
-    case Side::YLo: return x.y - lo.y;
-    case Side::YHi: return hi.y - x.y;
-    default: return top() - x.z;
-  }
-}
-
 int CouplingGeometry::side_face(size_t c, Side s) const {
   if (s == Side::Top) return face_of_cell_[c];
   return side_lookup_[4 * c + static_cast<size_t>(s) - 1];
 }
 
+double CouplingGeometry::depth_inside(Side s, const Vec3& x) const {
+  switch (s) {
+    case Side::XLo: return x.x - g_.ox();
+    case Side::XHi: return hi_.x - x.x;
+    case Side::YLo: return x.y - g_.oy();
+    case Side::YHi: return hi_.y - x.y;
+    default: return top() - x.z;
+  }
+}
+
 int CouplingGeometry::face_column(const Vec3& x) const {
-  const double h = g_.cell_size();
-  const int c = locate({x.x, x.y, top() - 0.5 * h});
-  return c < 0 ? -1 : face_of_cell_[static_cast<size_t>(c)];
+  const double fi = std::floor((x.x - g_.ox()) * inv_h_), fj = std::floor((x.y - g_.oy()) * inv_h_);
+  if (!(fi >= 0 && fj >= 0 && fi < g_.nx() && fj < g_.ny())) return -1;
+  return column_[static_cast<uint32_t>(fi) + g_.nx() * static_cast<uint32_t>(fj)];
 }
 
 }  // namespace mlcg::bus

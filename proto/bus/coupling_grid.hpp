@@ -8,6 +8,7 @@
 // crosses them both ways like the top. Faces are numbered: the top faces in
 // the order of the transition cells, then the side faces; per-cell arrays
 // follow `cells` (ascending flat index i + nx (j + ny k)).
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -56,7 +57,7 @@ class CouplingGeometry {
   Vec3 cell_centre(size_t c) const;
   double top() const { return g_.oz() + g_.nz() * g_.cell_size(); }  // height of the boundary surface
   Vec3 box_lo() const { return origin(); }
-  Vec3 box_hi() const;
+  Vec3 box_hi() const { return hi_; }
 
   // Fraction of active cell c's volume / boundary face f's area inside the walls (1 when the grid
   // does not say): the statistics divide by the inside volume, the traction acts on the inside area.
@@ -66,6 +67,8 @@ class CouplingGeometry {
   // Active cell containing x, or -1 (outside the box or in an inactive cell).
   int locate(const Vec3& x) const;
   // Boundary face whose column (x, y within the face) contains x, or -1.
+  // Out of line on purpose: inlined into its callers the compiler contracts their arithmetic differently, and the
+  // results move in the sixth digit.
   int face_column(const Vec3& x) const;
   // The boundary face through which a point outside the region most likely left it: the face whose
   // column holds it, else the face nearest to it; -1 when the grid has no face.
@@ -94,6 +97,9 @@ class CouplingGeometry {
   std::vector<Side> open_sides_;
   std::vector<int> side_lookup_;  // 4 per active cell: its side faces (XLo, XHi, YLo, YHi) or -1
   std::vector<int> lookup_;  // flat index -> active cell or -1
+  Vec3 hi_;                  // box_hi()
+  double inv_h_ = 0.0;       // 1 / cell size, as locate() computes it
+  std::vector<int> column_;  // per column i + nx j: its top face or -1
 };
 
 // x lies within `band` of the box [lo, hi], axis by axis (the box grown by band); with_z = false checks the
