@@ -65,7 +65,10 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
   wsum_.assign(nf, 0.0);
   if (!traction_on_) return;  // the same on every rank: the commands are
   std::vector<double> sums(nf + 2, 0.0);  // weights per face, then sum of radii and count in the zone
-  for (size_t i = 0; i < p.n_local(); ++i) {
+  // The candidate lists hold every particle apply() can press, in increasing order: the same sums.
+  const size_t mt = near_valid_ ? near_top_.size() : p.n_local();
+  for (size_t q = 0; q < mt; ++q) {
+    const size_t i = near_valid_ ? near_top_[q] : q;
     int f = -1;
     const double w = weight(p.x[i], p.radius[i], f);
     if (f < 0) continue;
@@ -73,12 +76,16 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
     sums[nf] += p.radius[i];
     sums[nf + 1] += 1.0;
   }
-  for (size_t i = 0; i < p.n_local() && !geo_.open_sides().empty(); ++i)
+  const size_t ms = geo_.open_sides().empty() ? 0 : near_valid_ ? near_side_.size() : p.n_local();
+  for (size_t q = 0; q < ms; ++q) {
+    const size_t i = near_valid_ ? near_side_[q] : q;
+    int cell = -2;  // located once per particle, on its first side within the fade depth
     for (const bus::Side sd : geo_.open_sides()) {
       int f = -1;
-      const double w = side_weight(p.x[i], p.radius[i], sd, f);
+      const double w = side_weight(p.x[i], p.radius[i], sd, cell, f);
       if (f >= 0) sums[static_cast<size_t>(f)] += w;
     }
+  }
   comm.sum_in_place(sums.data(), sums.size());
   // The floor is the weight of a layer at kPhiFloor flush with the boundary: its centres lie one
   // radius or more below the surface, so it weighs phi h^2 (D - r)^2 / (2 D), not phi h^2 D / 2.
@@ -88,13 +95,13 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
   for (size_t f = 0; f < nf; ++f) wsum_[f] = std::max(sums[f], floor * area_[f]);
 }
 
-double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, int& face) const {
+double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, int& cell, int& face) const {
   face = -1;
   const double s = geo_.depth_inside(side, x);
   if (!(s >= 0.0 && s < depth_)) return 0.0;
-  const int c = geo_.locate(x);
-  if (c < 0) return 0.0;
-  face = geo_.side_face(static_cast<size_t>(c), side);
+  if (cell == -2) cell = geo_.locate(x);
+  if (cell < 0) return 0.0;
+  face = geo_.side_face(static_cast<size_t>(cell), side);
   return face < 0 ? 0.0 : sphere_volume(r) * (1.0 - s / depth_);
 }
 
@@ -131,9 +138,10 @@ void ControllerForces::apply_sides(Particles& p) const {
   const size_t m = near_valid_ ? near_side_.size() : p.n_local();
   for (size_t q = 0; q < m; ++q) {
     const size_t i = near_valid_ ? near_side_[q] : q;
+    int cell = -2;
     for (const bus::Side sd : geo_.open_sides()) {
       int f = -1;
-      const double w = side_weight(p.x[i], p.radius[i], sd, f);
+      const double w = side_weight(p.x[i], p.radius[i], sd, cell, f);
       if (f < 0) continue;
       const auto fs = static_cast<size_t>(f);
       if (wsum_[fs] <= 0.0 || traction_[fs] == 0.0) continue;

@@ -43,8 +43,9 @@ class ControllerForces {
 
   // Fade weight of a centre x (radius r) and its face; 0 and face -1 outside every faded column.
   double weight(const Vec3& x, double r, int& face) const;
-  // The same below the open side `side` of the box.
-  double side_weight(const Vec3& x, double r, bus::Side side, int& face) const;
+  // The same below the open side `side` of the box. cell: the centre's coupling cell, located on the
+  // first call that needs it (pass -2 before), kept for the particle's other sides.
+  double side_weight(const Vec3& x, double r, bus::Side side, int& cell, int& face) const;
   const std::vector<double>& weight_sums() const { return wsum_; }
 
  private:
