@@ -48,13 +48,26 @@ def liggghts_snapshots(folder, dt):
         yield step * dt, path
 
 
-def read_dump(path):
+def read_dump(path, velocity=False):
     with open(path) as f:
         lines = f.read().splitlines()
     head = next(i for i, l in enumerate(lines) if l.startswith("ITEM: ATOMS"))
     cols = lines[head].split()[2:]
     data = np.array([l.split() for l in lines[head + 1:] if l.strip()], dtype=float).reshape(-1, len(cols))
-    return data[:, [cols.index("x"), cols.index("y"), cols.index("z")]], data[:, cols.index("radius")]
+    x, r = data[:, [cols.index("x"), cols.index("y"), cols.index("z")]], data[:, cols.index("radius")]
+    if not velocity:
+        return x, r
+    if "vx" not in cols:
+        sys.exit("%s: no vx vy vz columns (dump custom ... vx vy vz)" % path)
+    return x, r, data[:, [cols.index("vx"), cols.index("vy"), cols.index("vz")]]
+
+
+def read_particles(path):
+    """Positions, radii and velocities of one snapshot: ours (.h5) or a LIGGGHTS dump (.liggghts)."""
+    if path.endswith(".liggghts"):
+        return read_dump(path, velocity=True)
+    with h5py.File(path, "r") as f:
+        return np.asarray(f["position"]), np.asarray(f["radius"]), np.asarray(f["velocity"])
 
 
 def angle(path, center, axes):

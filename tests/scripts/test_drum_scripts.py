@@ -2,6 +2,9 @@
 """The drum's analysis scripts on snapshots of known answer (synthetic beds written as a run's particles/):
 
 - scripts/drum_angle.py: a bed filling the circular segment under a chord tilted at 30 degrees reads 30;
+- scripts/drum_layer.py: a bed under a chord tilted 30 degrees whose downslope velocity is U down to 2 mm
+  below the chord, then falls by omega per metre of depth, reads a layer U / omega + 2 mm thick, a surface
+  velocity U and a bulk rate omega;
 - scripts/drum_segregation.py: small beads in the inner disk of a full section and large ones in the ring
   around it read S = (2/3 (b^3 - a^3) / (b^2 - a^2) - 2a/3) / (2b/3); the same beads mixed read about 0.
 
@@ -25,13 +28,16 @@ failures = []
 
 
 def write_run(folder, beds):
-    """beds: list of (time, positions (N x 3), radii (N))."""
+    """beds: list of (time, positions (N x 3), radii (N)[, velocities (N x 3)])."""
     os.makedirs(os.path.join(folder, "particles"))
     entries = []
-    for i, (t, x, r) in enumerate(beds):
+    for i, bed in enumerate(beds):
+        t, x, r = bed[:3]
         with h5py.File(os.path.join(folder, "particles", "particles_%06d.h5" % i), "w") as f:
             f["position"] = x
             f["radius"] = r
+            if len(bed) > 3:
+                f["velocity"] = bed[3]
         entries.append({"time": t, "index": i})
     with open(os.path.join(folder, "particles", "index.json"), "w") as f:
         json.dump({"base": "particles", "entries": entries}, f)
@@ -70,6 +76,27 @@ with tempfile.TemporaryDirectory() as tmp:
     write_run(os.path.join(tmp, "tilted"), beds)
     m = re.search(r"dynamic angle of repose: ([-0-9.]+)", run("drum_angle.py", os.path.join(tmp, "tilted")))
     expect_near("drum_angle.py on a segment tilted 30 deg", float(m.group(1)) if m else float("nan"), 30.0, 0.2)
+
+    # The flowing layer: 1 mm beads, centres from one radius under the chord down (the surface is the chord),
+    # downslope velocity U to a = 2 mm under the chord, then U - omega (depth - a): the layer ends at a + U / omega.
+    U, a_top, omega, rb = 0.015, 2e-3, 1.5, 1e-3
+    depth = x @ n - 0.27 * R  # under the chord, for the positions of the tilted bed's disk
+    keep = depth > rb
+    beads, depth = x[keep][::15], depth[keep][::15]  # about 13,000: ~90 in a bin of the strip
+    down = np.array([math.cos(theta), 0.0, math.sin(theta)])  # along the chord, toward the lower end
+    if down[2] > 0.0:
+        down = -down
+    u = np.where(depth < a_top, U, U - omega * (depth - a_top))
+    vel = u[:, None] * down[None, :]
+    write_run(os.path.join(tmp, "layer"), [(2.0 + 0.1 * k, beads, np.full(len(beads), rb), vel) for k in range(3)])
+    out = run("drum_layer.py", os.path.join(tmp, "layer"))
+    m = re.search(r"flowing layer: ([-0-9.]+) \+- [-0-9.]+ mm .*surface velocity ([-0-9.]+) .*bulk ([-0-9.]+)", out)
+    if m:
+        expect_near("drum_layer.py, layer thickness [mm]", float(m.group(1)), 1e3 * (a_top + U / omega), 0.4)
+        expect_near("drum_layer.py, surface velocity [m/s]", float(m.group(2)), U, 1e-4)
+        expect_near("drum_layer.py, bulk rate [rad/s]", float(m.group(3)), omega, 0.02)
+    else:
+        failures.append("drum_layer.py printed no summary: %s" % out)
 
     # Two sizes: 1 mm beads in the inner disk a = R / sqrt(2), 1.5 mm in the ring to R (equal areas).
     a = R / math.sqrt(2.0)
