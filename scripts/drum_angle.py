@@ -86,8 +86,9 @@ def angle(path, center, axes):
     return math.degrees(math.atan2(abs(cx), -cz)), len(r)
 
 
-def main():
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def drum_arguments(doc):
+    """The arguments the drum's scripts share: the run, the first time, the axis and LIGGGHTS's dumps."""
+    p = argparse.ArgumentParser(description=doc.splitlines()[0])
     p.add_argument("run")
     p.add_argument("--from", dest="t0", type=float, default=2.0, help="first snapshot time [s] (default 2.0)")
     p.add_argument("--center", type=float, nargs=2, default=[0.0, 0.0], metavar=("X", "Z"),
@@ -95,13 +96,21 @@ def main():
     p.add_argument("--axis", choices=["x", "y"], default="y", help="the drum's axis (default y)")
     p.add_argument("--liggghts", action="store_true", help="RUN holds a LIGGGHTS run's dump*.liggghts files")
     p.add_argument("--dt", type=float, default=5e-6, help="the LIGGGHTS run's time step [s] (default 5e-6)")
-    args = p.parse_args()
-    axes = (0, 2) if args.axis == "y" else (1, 2)
-    rows = []
+    return p
+
+
+def run_snapshots(args):
+    """(time, path) of the run's snapshots from args.t0 on, in time order; and the section's axes."""
     found = liggghts_snapshots(args.run, args.dt) if args.liggghts else snapshots(args.run)
-    for t, path in sorted(found):
-        if t < args.t0 - 1e-9:
-            continue
+    axes = (0, 2) if args.axis == "y" else (1, 2)
+    return [(t, path) for t, path in sorted(found) if t >= args.t0 - 1e-9], axes
+
+
+def main():
+    args = drum_arguments(__doc__).parse_args()
+    rows = []
+    found, axes = run_snapshots(args)
+    for t, path in found:
         got = angle(path, args.center, axes)
         if got is None:
             continue

@@ -22,7 +22,6 @@ RUN is a run folder (its particles/), a hierarchy's level folder (levels/NAME), 
 of a LIGGGHTS run's `dump custom` files with radius, x y z and vx vy vz. Prints every snapshot from T on and the
 means with a 95 % t interval.
 """
-import argparse
 import math
 import os
 import sys
@@ -30,7 +29,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from drum_angle import liggghts_snapshots, read_particles, snapshots, t95  # noqa: E402
+from drum_angle import drum_arguments, read_particles, run_snapshots, t95  # noqa: E402
 
 
 def frame(p, w):
@@ -99,24 +98,14 @@ def layer(path, center, axes, strip_diameters):
 
 
 def main():
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("run")
-    p.add_argument("--from", dest="t0", type=float, default=2.0, help="first snapshot time [s] (default 2.0)")
-    p.add_argument("--center", type=float, nargs=2, default=[0.0, 0.0], metavar=("X", "Z"),
-                   help="the drum axis's position in the section [m] (default 0 0)")
-    p.add_argument("--axis", choices=["x", "y"], default="y", help="the drum's axis (default y)")
+    p = drum_arguments(__doc__)
     p.add_argument("--strip", type=float, default=3.0,
                    help="the strip's half-width about the surface's middle, in mean diameters (default 3)")
-    p.add_argument("--liggghts", action="store_true", help="RUN holds a LIGGGHTS run's dump*.liggghts files")
-    p.add_argument("--dt", type=float, default=5e-6, help="the LIGGGHTS run's time step [s] (default 5e-6)")
     p.add_argument("--csv", help="also write time, thickness, surface velocity and bulk rate to this file")
     args = p.parse_args()
-    axes = (0, 2) if args.axis == "y" else (1, 2)
-    found = liggghts_snapshots(args.run, args.dt) if args.liggghts else snapshots(args.run)
+    found, axes = run_snapshots(args)
     rows = []
-    for t, path in sorted(found):
-        if t < args.t0 - 1e-9:
-            continue
+    for t, path in found:
         got = layer(path, args.center, axes, args.strip)
         if got is None:
             print("t = %.3f s: no layer found (too few beads, or no bed turning under a flowing top)" % t)
