@@ -152,24 +152,21 @@ std::vector<char> InsertionPlanner::draw_pending(uint64_t interval) {
 
 void InsertionPlanner::fill_hash(const std::vector<Sphere>& occupants, const std::vector<char>& tries) {
   // Only the occupants a candidate in a trying face's slab can touch: within the largest fine radius plus
-  // their own of one of those slabs. The overlap tests answer as with every occupant in the hash. Each
-  // slab on its own, not the box around them all: a few faces try at once, often far apart, and the box
-  // around them held most of a wide region's occupants.
-  slabs_.clear();
+  // their own of the box around those slabs. The overlap tests answer as with every occupant in the hash.
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
   for (size_t f = 0; f < faces_.size(); ++f)
     if (tries[f]) {
-      std::pair<Vec3, Vec3> b;
-      geo_.face_slab(f, prm_.insert_depth, b.first, b.second);
-      slabs_.push_back(b);
+      Vec3 a, b;
+      geo_.face_slab(f, prm_.insert_depth, a, b);
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], a[k]);
+        hi[k] = std::max(hi[k], b[k]);
+      }
     }
   const double reach = prm_.radius_bins.back() / prm_.ratio;
   hash_.clear();
   for (const auto& o : occupants)
-    for (const auto& [lo, hi] : slabs_)
-      if (bus::near_box(o.x, lo, hi, reach + o.r)) {
-        hash_.add(o);
-        break;
-      }
+    if (bus::near_box(o.x, lo, hi, reach + o.r)) hash_.add(o);
 }
 
 std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<Sphere>& occupants) {

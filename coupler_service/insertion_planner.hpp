@@ -22,7 +22,6 @@
 #include <functional>
 #include <optional>
 #include <random>
-#include <utility>
 #include <vector>
 
 #include "bus/coupling_grid.hpp"
@@ -106,7 +105,6 @@ class InsertionPlanner {
   FitsGeometry fits_;
   std::vector<FaceState> faces_;
   SphereHash hash_;  // the slabs' occupants and this plan's particles; reused from plan to plan
-  std::vector<std::pair<Vec3, Vec3>> slabs_;  // fill_hash's scratch: the trying faces' slabs
   std::vector<std::optional<std::mt19937_64>> rngs_;  // per face, seeded on first use in a plan
 };
 
