@@ -11,8 +11,8 @@ that perpendicular (the whole drum length), in bins half a mean diameter deep:
              radius (the top beads' surfaces; the bulk: 3 to 8 mean diameters below the top);
   thickness  from the surface down to where u changes sign (linear between bin centres);
   u_s        the mass-weighted mean downslope velocity of the beads within one mean diameter of the surface;
-  omega      the bulk's rotation rate, the slope of u over depth from 2 mean diameters below the layer down
-             (a check: the drum's rate in the rolling regime).
+  omega      the slope of u over depth from 2 mean diameters below the layer down: the drum's rate for a bed
+             turning as a solid body, steeper where the bed under the layer creeps (slower than the drum).
 
 The surface's orientation comes from the bed's centroid as in scripts/drum_angle.py.
 
