@@ -14,9 +14,11 @@ that perpendicular (the whole drum length), in bins half a mean diameter deep:
   omega      the slope of u over depth from 2 mean diameters below the layer down: the drum's rate for a bed
              turning as a solid body, steeper where the bed under the layer creeps (slower than the drum).
 
-The surface's orientation comes from the bed's centroid as in scripts/drum_angle.py.
+The surface's orientation comes from the bed's centroid as in scripts/drum_angle.py, or from --angle where RUN
+holds only part of the bed (the fine level of a hierarchy whose region is a slice through it).
 
-  scripts/drum_layer.py RUN [--from T] [--center X Z] [--axis y] [--strip W] [--liggghts [--dt DT]] [--csv FILE]
+  scripts/drum_layer.py RUN [--from T] [--center X Z] [--axis y] [--strip W] [--angle DEG] [--liggghts [--dt DT]]
+                        [--csv FILE]
 
 RUN is a run folder (its particles/), a hierarchy's level folder (levels/NAME), or with --liggghts the folder
 of a LIGGGHTS run's `dump custom` files with radius, x y z and vx vy vz. Prints every snapshot from T on and the
@@ -32,9 +34,13 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from drum_angle import drum_arguments, read_particles, run_snapshots, t95  # noqa: E402
 
 
-def frame(p, w):
-    """Unit normal n (out of the bed's surface) and downslope tangent t in the section, from the centroid."""
+def frame(p, w, angle=None):
+    """Unit normal n (out of the bed's surface) and downslope tangent t in the section, from the centroid, or
+    with `angle` [deg] from the surface's angle (the centroid then gives only the side the bed lies on)."""
     c = (w[:, None] * p).sum(axis=0) / w.sum()
+    if angle is not None:
+        a = math.radians(angle)
+        c = np.array([math.copysign(math.sin(a), c[0]), -math.cos(a)])
     n = -c / np.linalg.norm(c)
     t = np.array([n[1], -n[0]])
     if t[1] > 0.0 or (t[1] == 0.0 and t[0] < 0.0):
@@ -50,7 +56,7 @@ def crossing(z, f, level):
     return None
 
 
-def layer(path, center, axes, strip_diameters):
+def layer(path, center, axes, strip_diameters, angle=None):
     x, r, v = read_particles(path)
     if len(r) < 50:
         return None
@@ -58,7 +64,7 @@ def layer(path, center, axes, strip_diameters):
     p = np.column_stack([x[:, a] - center[0], x[:, b] - center[1]])
     u2 = np.column_stack([v[:, a], v[:, b]])
     w = r ** 3  # mass weights, one material
-    n, t = frame(p, w)
+    n, t = frame(p, w, angle)
     zeta, xi, u = p @ n, p @ t, u2 @ t
     rbar = r.mean()
     keep = np.abs(xi) < strip_diameters * 2.0 * rbar
@@ -101,12 +107,15 @@ def main():
     p = drum_arguments(__doc__)
     p.add_argument("--strip", type=float, default=3.0,
                    help="the strip's half-width about the surface's middle, in mean diameters (default 3)")
+    p.add_argument("--angle", type=float,
+                   help="the surface's angle [deg] (drum_angle.py's) where RUN holds part of the bed only (a fine "
+                        "level's slice); default: from RUN's own centroid")
     p.add_argument("--csv", help="also write time, thickness, surface velocity and bulk rate to this file")
     args = p.parse_args()
     found, axes = run_snapshots(args)
     rows = []
     for t, path in found:
-        got = layer(path, args.center, axes, args.strip)
+        got = layer(path, args.center, axes, args.strip, args.angle)
         if got is None:
             print("t = %.3f s: no layer found (too few beads, or no bed turning under a flowing top)" % t)
             continue
