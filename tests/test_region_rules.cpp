@@ -118,8 +118,8 @@ TEST(RegionRules, NoOrificeSkipsTheOrificeRulesWithANote) {
   EXPECT_TRUE(has(r.notes, "give [orifice]"));
 }
 
-TEST(RegionRules, ARegionInADrumWithNoOutletIsRefusedNamingTheMovingWall) {
-  // The bulk of a drum circulates through a region's lower faces, which the coupling does not hand over.
+TEST(RegionRules, ARegionInADrumWithNoOutletIsRefusedNamingTheMovingWallUnlessItReachesBelowTheWalls) {
+  // The bulk of a drum circulates through a region's faces; the coupling hands over its top and sides only.
   const std::string path = kSrc + "/cases/drum/mlcg_rules_test.toml";  // never written: the base resolves beside it
   const std::string text = "base = \"reference.toml\"\n[[levels]]\nname = \"coarse\"\nalpha = 2.0\ndt = 1e-5\n"
                            "[[levels]]\nname = \"fine\"\nalpha = 1.0\ndt = 5e-6\n[coupling]\n[[coupling.regions]]\n"
@@ -131,6 +131,18 @@ TEST(RegionRules, ARegionInADrumWithNoOutletIsRefusedNamingTheMovingWall) {
   EXPECT_TRUE(has(r.errors, path + ":" + std::to_string(line_of(text, "min = ")) +
                                 ": coupling.regions[0].min: the scene has no outlet and wall 'drum' moves"))
       << all(r.errors);
+  // A slice through the bed from below the drum: entered and left through its sides only, accepted.
+  auto& slice = cs.coupling->regions[0];
+  slice.min = {-0.015, -0.015, -0.045};
+  slice.max = {0.015, 0.015, 0.03};
+  slice.cell_size = 0.015;
+  r = rules(cs);
+  EXPECT_TRUE(r.errors.empty()) << all(r.errors);
+  EXPECT_TRUE(has(r.warnings, "the region is a slice through the bed")) << all(r.warnings);
+  EXPECT_TRUE(has(r.warnings, "no accuracy is promised")) << all(r.warnings);
+  slice.min.z = -0.03;  // its bottom 1 cm above the drum's lowest point: inside the vessel again
+  r = rules(cs);
+  EXPECT_TRUE(has(r.errors, "this region's bottom (z = -0.03 m) lies inside the vessel")) << all(r.errors);
   for (auto& w : cs.walls) w.angular_velocity = 0.0;  // the same closed drum at rest: a note, as before
   r = rules(cs);
   EXPECT_TRUE(r.errors.empty()) << all(r.errors);
