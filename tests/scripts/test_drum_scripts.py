@@ -6,7 +6,8 @@
   below the chord, then falls by omega per metre of depth, reads a layer U / omega + 2 mm thick, a surface
   velocity U and a bulk rate omega; a slice of that bed with --angle 30 the same;
 - scripts/drum_segregation.py: small beads in the inner disk of a full section and large ones in the ring
-  around it read S = (2/3 (b^3 - a^3) / (b^2 - a^2) - 2a/3) / (2b/3); the same beads mixed read about 0.
+  around it read S = (2/3 (b^3 - a^3) / (b^2 - a^2) - 2a/3) / (2b/3); the same beads mixed read about 0; the
+  same bed split over two levels (--hierarchy: fine beads in a region, coarse parcels of 8 beads outside) the same.
 
   tests/scripts/test_drum_scripts.py SOURCE_DIR
 """
@@ -126,6 +127,32 @@ with tempfile.TemporaryDirectory() as tmp:
         expect_near("drum_segregation.py, the same beads mixed", s[2], 0.0, 0.01)
     else:
         failures.append("drum_segregation.py printed %d values of S, not 4: %s" % (len(s), out))
+
+    # The same core-and-ring bed as a two-level run: beads in the fine level's region |x| < 2 cm, one in 8 of
+    # the beads outside it as the coarse level's parcels (alpha 2: twice the radius, 8 beads each), and
+    # parcels of the large size inside the region, which the coarse level holds too and --hierarchy leaves out.
+    inside = np.abs(x[:, 0]) < 0.02
+    out_idx = np.flatnonzero(~inside)[::8]
+    ghost = disk(3000, 0.0, R)
+    ghost = ghost[np.abs(ghost[:, 0]) < 0.02]
+    xc = np.vstack([x[out_idx], ghost])
+    rc = np.concatenate([2.0 * r[out_idx], np.full(len(ghost), 3e-3)])
+    two = os.path.join(tmp, "two")
+    for name, alpha, beds in (("coarse", 2.0, [(2.0, xc, rc), (2.1, xc, rc)]),
+                              ("fine", 1.0, [(2.0, x[inside], r[inside]), (2.1, x[inside], r[inside])])):
+        folder = os.path.join(two, "levels", name)
+        write_run(folder, beds)
+        with open(os.path.join(folder, "summary.json"), "w") as f:
+            json.dump({"levels": [{"alpha": alpha}]}, f)
+    with open(os.path.join(two, "levels", "fine", "case.toml"), "w") as f:
+        f.write("[coupling]\n[[coupling.regions]]\nmin = [-0.02, -0.05, -0.05]\nmax = [0.02, 0.05, 0.05]\n")
+    out = run("drum_segregation.py", two, "--hierarchy")
+    s = [float(v) for v in re.findall(r"S = ([-+0-9.]+)", out)]
+    if len(s) == 2:
+        expect_near("drum_segregation.py --hierarchy, the core-and-ring bed on two levels", s[0],
+                    (d_l - d_s) / d_all, 0.015)
+    else:
+        failures.append("drum_segregation.py --hierarchy printed %d values of S, not 2: %s" % (len(s), out))
 
 if failures:
     sys.exit("FAILED: " + "; ".join(failures))
