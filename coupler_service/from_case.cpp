@@ -44,7 +44,7 @@ double open_share(const WallSet& walls, const bus::CouplingGeometry& geo, size_t
   for (int q = 0; q < n * n; ++q) {
     const double u = (q % n + 0.5) / n, v = (q / n + 0.5) / n;
     Vec3 x = lo;  // u, v across the face's two in-plane axes
-    if (s == bus::Side::Top) x += Vec3{u * (hi.x - lo.x), v * (hi.y - lo.y), 0.0};
+    if (s == bus::Side::Top || s == bus::Side::Bottom) x += Vec3{u * (hi.x - lo.x), v * (hi.y - lo.y), 0.0};
     else if (lo.x == hi.x) x += Vec3{0.0, u * (hi.y - lo.y), v * (hi.z - lo.z)};
     else x += Vec3{u * (hi.x - lo.x), 0.0, v * (hi.z - lo.z)};
     in += !walls.crosses(inside, x + shift);
@@ -53,8 +53,10 @@ double open_share(const WallSet& walls, const bus::CouplingGeometry& geo, size_t
 }
 
 // The box sides through which the geometry goes on beyond the region (a region that does not span
-// the vessel): any sample point just outside the face reachable from `inside` makes it a boundary face.
-void open_sides(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& inside) {
+// the vessel): any sample point just outside the face reachable from `inside` makes it a boundary face. The
+// bottom only when the case opens it (open_bottom): below a region lies the outflow under an outlet, unless
+// the region sits on the bulk of a drum or a belt.
+void open_sides(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& inside, bool bottom) {
   const bus::CouplingGeometry geo(gr);
   const double eps = 1e-6 * geo.cell_size();
   for (size_t c = 0; c < geo.cells(); ++c) {
@@ -65,6 +67,9 @@ void open_sides(const WallSet& walls, bus::CouplingGrid& gr, const Vec3& inside)
         gr.add_side_faces(static_cast<uint32_t>(4 * c + d));
     }
   }
+  if (!bottom) return;
+  for (size_t c = 0; c < geo.cells() && geo.flat(c) < gr.nx() * gr.ny(); ++c)
+    if (open_share(walls, geo, c, bus::Side::Bottom, inside, eps) > 0.0) gr.add_bottom_faces(static_cast<uint32_t>(c));
 }
 
 // Fractions of each active cell's volume and of each boundary face's area that
@@ -173,7 +178,7 @@ void fill_grid(bus::CouplingGrid& gr, const config::CouplingRegionSpec& rs, cons
   for (uint32_t c : cells) gr.add_cells(c);
   // The vessel goes on beyond a side where the walls with the outlets' lids in place let one reach it: beyond an
   // opened lid lies the outflow (a side-wall hole's stream), which the coarse level does not feed the region from.
-  open_sides(lids_closed, gr, inside);
+  open_sides(lids_closed, gr, inside, rs.open_bottom);
   inside_fractions(walls, gr, inside);
   for (double v : {inside.x, inside.y, inside.z}) gr.add_inside_point(v);
   const double d_coarse = 2.0 * sizes.r_max * ac, d_fine = 2.0 * sizes.r_max * af;

@@ -261,7 +261,7 @@ void Service::write_final(const std::string& status) const {
       Vec3 lo, hi;
       geo.face_slab(f, 0.0, lo, hi);
       const Vec3 c = 0.5 * (lo + hi);  // the face's centre
-      static constexpr const char* kSide[] = {"top", "-x", "+x", "-y", "+y"};
+      static constexpr const char* kSide[] = {"top", "-x", "+x", "-y", "+y", "bottom"};
       csv += fmt::format("{},{:.6g},{:.6g},{:.17g},{:.17g},{:.17g},{},{},{:.17g},{},{:.6g}\n", f, c.x, c.y, s.crossed,
                          s.inserted, s.remainder, s.placed, s.short_intervals, s.returned,
                          kSide[static_cast<int>(geo.side_of_face(f))], c.z);

@@ -6,7 +6,7 @@ a circular segment lies on the perpendicular from the circle's centre to its cho
 the horizontal is the angle between the bed's centroid direction (seen from the drum's axis) and the
 downward vertical: no surface has to be found, and single particles bouncing above the bed barely move it.
 
-  scripts/drum_angle.py RUN [--from T] [--center X Z] [--axis y] [--liggghts [--dt DT]]
+  scripts/drum_angle.py RUN [--from T] [--center X Z] [--axis y] [--gravity GX GZ] [--liggghts [--dt DT]]
 
 RUN is a run folder (its particles/), a hierarchy's level folder (levels/NAME), or with --liggghts the folder
 of a LIGGGHTS run's `dump custom` files (dump*.liggghts: id type radius x y z ..., times = step x DT). Prints the angle of every
@@ -70,7 +70,7 @@ def read_particles(path):
         return np.asarray(f["position"]), np.asarray(f["radius"]), np.asarray(f["velocity"])
 
 
-def angle(path, center, axes):
+def angle(path, center, axes, gravity=(0.0, -1.0)):
     if path.endswith(".liggghts"):
         x, r = read_dump(path)
     else:
@@ -83,7 +83,8 @@ def angle(path, center, axes):
     a, b = axes  # horizontal and vertical in-plane coordinates
     cx = np.sum(w * (x[:, a] - center[0])) / np.sum(w)
     cz = np.sum(w * (x[:, b] - center[1])) / np.sum(w)
-    return math.degrees(math.atan2(abs(cx), -cz)), len(r)
+    gx, gz = gravity  # the angle between the centroid's direction and gravity's
+    return math.degrees(math.atan2(abs(cx * gz - cz * gx), cx * gx + cz * gz)), len(r)
 
 
 def drum_arguments(doc):
@@ -96,6 +97,8 @@ def drum_arguments(doc):
     p.add_argument("--axis", choices=["x", "y"], default="y", help="the drum's axis (default y)")
     p.add_argument("--liggghts", action="store_true", help="RUN holds a LIGGGHTS run's dump*.liggghts files")
     p.add_argument("--dt", type=float, default=5e-6, help="the LIGGGHTS run's time step [s] (default 5e-6)")
+    p.add_argument("--gravity", type=float, nargs=2, default=[0.0, -1.0], metavar=("GX", "GZ"),
+                   help="gravity's direction in the section (default 0 -1; a case with tilted gravity, its x and z)")
     return p
 
 
@@ -111,7 +114,7 @@ def main():
     rows = []
     found, axes = run_snapshots(args)
     for t, path in found:
-        got = angle(path, args.center, axes)
+        got = angle(path, args.center, axes, args.gravity)
         if got is None:
             continue
         rows.append((t, got[0], got[1]))

@@ -34,7 +34,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from drum_angle import drum_arguments, read_particles, run_snapshots, t95  # noqa: E402
 
 
-def frame(p, w, angle=None):
+def frame(p, w, angle=None, gravity=(0.0, -1.0)):
     """Unit normal n (out of the bed's surface) and downslope tangent t in the section, from the centroid, or
     with `angle` [deg] from the surface's angle (the centroid then gives only the side the bed lies on)."""
     c = (w[:, None] * p).sum(axis=0) / w.sum()
@@ -43,7 +43,7 @@ def frame(p, w, angle=None):
         c = np.array([math.copysign(math.sin(a), c[0]), -math.cos(a)])
     n = -c / np.linalg.norm(c)
     t = np.array([n[1], -n[0]])
-    if t[1] > 0.0 or (t[1] == 0.0 and t[0] < 0.0):
+    if t @ np.asarray(gravity) < 0.0:  # downslope: along gravity
         t = -t
     return n, t
 
@@ -56,7 +56,7 @@ def crossing(z, f, level):
     return None
 
 
-def layer(path, center, axes, strip_diameters, angle=None):
+def layer(path, center, axes, strip_diameters, angle=None, gravity=(0.0, -1.0)):
     x, r, v = read_particles(path)
     if len(r) < 50:
         return None
@@ -64,7 +64,7 @@ def layer(path, center, axes, strip_diameters, angle=None):
     p = np.column_stack([x[:, a] - center[0], x[:, b] - center[1]])
     u2 = np.column_stack([v[:, a], v[:, b]])
     w = r ** 3  # mass weights, one material
-    n, t = frame(p, w, angle)
+    n, t = frame(p, w, angle, gravity)
     zeta, xi, u = p @ n, p @ t, u2 @ t
     rbar = r.mean()
     keep = np.abs(xi) < strip_diameters * 2.0 * rbar
@@ -115,7 +115,7 @@ def main():
     found, axes = run_snapshots(args)
     rows = []
     for t, path in found:
-        got = layer(path, args.center, axes, args.strip, args.angle)
+        got = layer(path, args.center, axes, args.strip, args.angle, args.gravity)
         if got is None:
             print("t = %.3f s: no layer found (too few beads, or no bed turning under a flowing top)" % t)
             continue

@@ -129,6 +129,65 @@ TEST(FaceFlux, ScriptedParticlesFallingThroughFacesGiveExactNetSums) {
   EXPECT_EQ(ff.histogram, (std::vector<int64_t>{0, 0, 0, 0}));
 }
 
+TEST(FaceFlux, AnOpenBottomCountsTheBulkRisingIntoTheRegionAndTheFineLeavingDownward) {
+  // A 2 x 1 x 2 box of 1 cm cells at z in [0, 0.02); the bottom face of cell (1, 0, 0) is open (a layer over a
+  // coarse bulk), the one of cell (0, 0, 0) closed. Faces: top 0, 1; bottom 2.
+  auto grid = make_grid({0, 0, 0}, 0.01, 2, 1, 2, {1e-3, 2e-3, 3e-3});
+  grid.add_bottom_faces(1);
+  const bus::CouplingGeometry geo(grid);
+  ASSERT_EQ(geo.faces(), 3u);
+  EXPECT_EQ(geo.side_of_face(2), bus::Side::Bottom);
+  EXPECT_EQ(geo.face_inward(2), (Vec3{0.0, 0.0, 1.0}));
+  EXPECT_EQ(geo.normal_axis(2), 2);
+  EXPECT_EQ(geo.side_face(1, bus::Side::Bottom), 2);
+  EXPECT_EQ(geo.side_face(0, bus::Side::Bottom), -1);
+  EXPECT_DOUBLE_EQ(geo.depth_inside(bus::Side::Bottom, {0.015, 0.005, 0.003}), 0.003);
+  Vec3 lo, hi;
+  geo.face_slab(2, 0.004, lo, hi);
+  EXPECT_EQ(lo, (Vec3{0.01, 0.0, 0.0}));
+  EXPECT_EQ(hi, (Vec3{0.02, 0.01, 0.004}));
+  EXPECT_EQ(geo.exit_face({0.015, 0.005, -0.002}), 2);  // under the open bottom
+  EXPECT_TRUE(geo.below_a_bottom_face({0.015, 0.005, -0.002}));
+  EXPECT_FALSE(geo.below_a_bottom_face({0.005, 0.005, -0.002}));  // under the closed one: as without
+  Particles p;
+  add(p, {0.015, 0.005, -0.0005}, 1.5e-3, {0, 0, 1.0});  // up through the open bottom: in
+  add(p, {0.015, 0.005, 0.0005}, 2.5e-3, {0, 0, -1.0});  // down through it: out
+  add(p, {0.005, 0.005, -0.0005}, 1.5e-3, {0, 0, 1.0});  // up through the closed bottom: not counted
+  FaceFlux ff(geo);
+  ff.refresh(p, 0.01);
+  for (int s = 0; s < 2; ++s) {
+    drift(p, 1e-3);
+    ff.check(p);
+  }
+  EXPECT_DOUBLE_EQ(ff.mass[2], p.mass[0] - p.mass[1]);
+  EXPECT_EQ(ff.mass[0] + ff.mass[1], 0.0);
+  EXPECT_EQ(ff.histogram, (std::vector<int64_t>{0, 0, 0, 0, 1, -1}));
+  // The fine level: a centre under the open bottom has left the region; under the closed one it has not.
+  GridLink fine(0, grid, Role::Fine);
+  EXPECT_TRUE(fine.leaves({0.015, 0.005, -0.001}));
+  EXPECT_FALSE(fine.leaves({0.005, 0.005, -0.001}));
+  EXPECT_FALSE(fine.leaves({0.015, 0.005, 0.001}));
+  // The traction of the bottom face presses the particles within the fade depth above it upward, as the top
+  // face's presses those under it downward: the same traction, the same depth, the same force mirrored.
+  grid.set_fade_depth(0.004);
+  const bus::CouplingGeometry faded(grid);
+  Particles q;
+  add(q, {0.015, 0.005, 0.001}, 1e-3);  // 1 mm above the open bottom
+  add(q, {0.015, 0.005, 0.019}, 1e-3);  // 1 mm under the top face of the same column
+  add(q, {0.015, 0.005, 0.010}, 1e-3);  // beyond both fade depths
+  add(q, {0.005, 0.005, 0.001}, 1e-3);  // above the closed bottom
+  ControllerForces cf(faded);
+  cf.set_traction({0.0, 100.0, 100.0}, {});
+  cf.normalise(q, Comm{});
+  q.clear_forces();
+  cf.apply(q);
+  EXPECT_GT(q.f[0].z, 0.0);
+  EXPECT_DOUBLE_EQ(q.f[0].z, -q.f[1].z);
+  EXPECT_EQ(q.f[0].x, 0.0);
+  EXPECT_EQ(q.f[2], Vec3{});
+  EXPECT_EQ(q.f[3], Vec3{});
+}
+
 TEST(FaceFlux, ParticlesBornInsideTheRegionCountAsEntered) {
   // Faces at z = 0.02 over x in [0, 0.01) and [0.01, 0.02); a coarse level that pours into the region
   // itself hands that mass over as if it had crossed.

@@ -143,6 +143,12 @@ TEST(RegionRules, ARegionInADrumWithNoOutletIsRefusedNamingTheMovingWallUnlessIt
   slice.min.z = -0.03;  // its bottom 1 cm above the drum's lowest point: inside the vessel again
   r = rules(cs);
   EXPECT_TRUE(has(r.errors, "this region's bottom (z = -0.03 m) lies inside the vessel")) << all(r.errors);
+  slice.open_bottom = true;  // the bottom handed over like the sides: refused, with what was measured
+  r = rules(cs);
+  ASSERT_EQ(r.errors.size(), 1u) << all(r.errors);
+  EXPECT_TRUE(has(r.errors, "coupling.regions[0].open_bottom: an open bottom is not supported yet")) << all(r.errors);
+  EXPECT_TRUE(has(r.errors, "11 deg flatter")) << all(r.errors);
+  slice.open_bottom = false;
   for (auto& w : cs.walls) w.angular_velocity = 0.0;  // the same closed drum at rest: a note, as before
   r = rules(cs);
   EXPECT_TRUE(r.errors.empty()) << all(r.errors);
@@ -174,6 +180,17 @@ TEST(RegionRules, ARegionShortOfTheMarginAcrossItsOutletInsideTheVesselIsWarnedO
 }
 
 // ---- refusals -----------------------------------------------------------------------
+
+TEST(RegionRules, RefusesAnOpenBottomUnderARegionThatHoldsAnOutlet) {
+  // The quickstart's region around its funnel's outlet: what leaves through the outlet sinks through the
+  // region's bottom, which an open bottom would hand back to the coarse level.
+  const std::string text = quickstart("cell_size = 0.02", "cell_size = 0.02\nopen_bottom = true");
+  const auto r = rules_of(text);
+  EXPECT_TRUE(has(r.errors, kQuickstart + ":" + std::to_string(line_of(text, "open_bottom = true")) +
+                                ": coupling.regions[0].open_bottom: the region holds outlet 'outlet0'"))
+      << all(r.errors);
+  EXPECT_TRUE(rules_of(quickstart()).errors.empty());
+}
 
 TEST(RegionRules, RefusesATopTooCloseAboveTheOrifice) {
   const std::string text = quickstart("max = [0.04, 0.04, 0.04]", "max = [0.04, 0.04, 0.02]");

@@ -130,8 +130,9 @@ CouplingRegionSpec read_region(const Table& raw, const CaseSpec& spec, const Nam
   g.acceleration_limit = r.value<double>("acceleration_limit");
   g.velocity_only_below = r.value<double>("velocity_only_below");
   g.radius_bins = static_cast<int>(r.value<int64_t>("radius_bins"));
+  g.open_bottom = r.value<bool>("open_bottom");
   g.loc = r.loc();
-  for (const char* k : {"min", "max", "cell_size", "coarse", "fine"})
+  for (const char* k : {"min", "max", "cell_size", "coarse", "fine", "open_bottom"})
     if (r.has(k)) g.key_locs[k] = r.loc(k);
   return g;
 }

@@ -60,6 +60,10 @@ inline constexpr KeySpec kCouplingRegion[] = {
      "the height below which cells use pure velocity coupling (m)", {-kInf, kInf, false, false}},
     {"radius_bins", "integer", "`8`", "≥ 1", "the bins of the size histogram (>= 1)", closed(1.0, 1e6), "",
      "the number of size bins"},
+    {"open_bottom", "boolean", "`false`", "",
+     "whether the region's bottom is a boundary face where the vessel goes on below it (a fine flowing layer over "
+     "a coarse bulk): coarse mass rising through it is placed as fine particles, fine particles sinking through it "
+     "are handed back; refused for now (no shear is handed over through it)"},
 };
 
 inline constexpr KeySpec kLauncher[] = {

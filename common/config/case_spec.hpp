@@ -252,6 +252,7 @@ struct CouplingRegionSpec {        // [[coupling.regions]] one fine region insid
   double velocity_only_below = -std::numeric_limits<double>::infinity();
                                    // velocity_only_below [m]: cells below this height use pure velocity coupling
   int radius_bins = 8;             // radius_bins >= 1: size-histogram bins of the crossing coarse particles
+  bool open_bottom = false;        // open_bottom: the box's bottom is a boundary face where the vessel goes on below
   SourceLoc loc;
   std::map<std::string, SourceLoc> key_locs;  // where each key is written, so checks made after parsing can name it
   SourceLoc loc_of(const std::string& key) const {

@@ -18,7 +18,7 @@ FaceFlux::FaceFlux(const bus::CouplingGeometry& geo)
   nb_ = edges_.size() >= 2 ? edges_.size() - 1 : 1;
   const Vec3 lo = geo.box_lo(), hi = geo.box_hi();
   for (const bus::Side s : geo.open_sides()) {
-    const bool low = s == bus::Side::XLo || s == bus::Side::YLo;
+    const bool low = s == bus::Side::XLo || s == bus::Side::YLo || s == bus::Side::Bottom;
     sides_.push_back({s, PlaneCrossings(low ? lo : hi, bus::CouplingGeometry::inward(s))});
   }
   reset();

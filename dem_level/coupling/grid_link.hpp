@@ -66,9 +66,11 @@ class GridLink {
   // level's part of the vessel. Beside a side that is no boundary face (outside the vessel: the stream off a
   // belt's end, out of a side-wall hole) it has left the vessel: it stays a fine particle until it leaves the
   // domain, and its mass is not handed back to a face to be placed again under the region's top.
+  // Under an open bottom (a fine layer over a coarse bulk) it left the region downward, the same way.
   bool leaves(const Vec3& x) const {
-    return role_ == Role::Fine && (x.z > top_ || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y) &&
-           !geo_.beside_a_closed_side(x);
+    if (role_ != Role::Fine) return false;
+    if (x.z > top_ || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y) return !geo_.beside_a_closed_side(x);
+    return x.z < lo_.z && geo_.below_a_bottom_face(x);
   }
   // Fine role: a particle at x left the region (removed by the level); its mass goes back to its face.
   void count_removed(const Vec3& x, double mass);

@@ -146,11 +146,12 @@ std::vector<RegionInfo> print_regions(const config::CaseSpec& cs, const config::
     const auto warnings = std::count_if(rules->warnings.begin(), rules->warnings.end(),
                                         [&](const std::string& w) { return w.find(key) != std::string::npos; });
     const auto& g = geo.grid();
+    const size_t bottom = static_cast<size_t>(g.bottom_faces_size());
     std::printf("region %zu ('%s' -> '%s'): %u x %u x %u cells of %g m, %zu inside the walls (%zu transition, "
-                "%zu correction), %zu boundary faces (%zu top, %zu side), %.3g m^3 inside; region rules: %s\n",
+                "%zu correction), %zu boundary faces (%zu top, %zu side%s), %.3g m^3 inside; region rules: %s\n",
                 r, spec.coarse.c_str(), spec.fine.c_str(), g.nx(), g.ny(), g.nz(), h, geo.cells(), transition,
-                geo.cells() - transition, geo.faces(), geo.top_faces(), geo.faces() - geo.top_faces(),
-                info.inside_volume,
+                geo.cells() - transition, geo.faces(), geo.top_faces(), geo.faces() - geo.top_faces() - bottom,
+                bottom > 0 ? fmt::format(", {} bottom", bottom).c_str() : "", info.inside_volume,
                 warnings == 0 ? "passed" : fmt::format("passed with {} warning(s) (above)", warnings).c_str());
   }
   return out;

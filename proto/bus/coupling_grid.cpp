@@ -26,7 +26,7 @@ CouplingGeometry::CouplingGeometry(const CouplingGrid& g) : g_(g) {
   }
   top_faces_ = faces_.size();
   side_.assign(top_faces_, Side::Top);
-  side_lookup_.assign(4 * cells_.size(), -1);
+  side_lookup_.assign(5 * cells_.size(), -1);
   for (int k = 0; k < g.side_faces_size(); ++k) {
     const uint32_t code = g.side_faces(k), c = code / 4, d = code % 4;
     if (c >= cells_.size())
@@ -39,11 +39,20 @@ CouplingGeometry::CouplingGeometry(const CouplingGrid& g) : g_(g) {
     if (!on_box)
       throw std::invalid_argument("coupling grid: side face " + std::to_string(code) +
                                   " is not on the side of the box");
-    side_lookup_[code] = static_cast<int>(faces_.size());
-    faces_.push_back(c);
-    side_.push_back(static_cast<Side>(d + 1));
-    if (std::find(open_sides_.begin(), open_sides_.end(), side_.back()) == open_sides_.end())
-      open_sides_.push_back(side_.back());
+    add_face(c, static_cast<Side>(d + 1));
+  }
+  for (int k = 0; k < g.bottom_faces_size(); ++k) {
+    const uint32_t c = g.bottom_faces(k);
+    if (c >= cells_.size())
+      throw std::invalid_argument("coupling grid: bottom face names cell " + std::to_string(c) + " of " +
+                                  std::to_string(cells_.size()));
+    if (k > 0 && c <= g.bottom_faces(k - 1))
+      throw std::invalid_argument("coupling grid: bottom faces not strictly ascending");
+    if (cells_[c] >= layer)
+      throw std::invalid_argument("coupling grid: bottom face of cell " + std::to_string(c) +
+                                  ", which is not in the bottom layer");
+    add_face(c, Side::Bottom);
+    ++bottom_faces_;
   }
   const auto fractions = [](const auto& a, size_t want, const char* what) {
     if (a.size() != 0 && static_cast<size_t>(a.size()) != want)
@@ -67,6 +76,13 @@ CouplingGeometry::CouplingGeometry(const CouplingGrid& g) : g_(g) {
       const int c = locate(origin() + Vec3{(i + 0.5) * h, (j + 0.5) * h, top() - 0.5 * h - g_.oz()});
       column_.push_back(c < 0 ? -1 : face_of_cell_[static_cast<size_t>(c)]);
     }
+}
+
+void CouplingGeometry::add_face(uint32_t c, Side s) {
+  side_lookup_[5 * c + static_cast<size_t>(s) - 1] = static_cast<int>(faces_.size());
+  faces_.push_back(c);
+  side_.push_back(s);
+  if (std::find(open_sides_.begin(), open_sides_.end(), s) == open_sides_.end()) open_sides_.push_back(s);
 }
 
 Vec3 CouplingGeometry::cell_lo(size_t c) const {
@@ -95,6 +111,7 @@ Vec3 CouplingGeometry::inward(Side s) {
     case Side::XHi: return {-1.0, 0.0, 0.0};
     case Side::YLo: return {0.0, 1.0, 0.0};
     case Side::YHi: return {0.0, -1.0, 0.0};
+    case Side::Bottom: return {0.0, 0.0, 1.0};
     default: return {0.0, 0.0, -1.0};
   }
 }
@@ -112,12 +129,13 @@ void CouplingGeometry::cell_slab(size_t c, Side s, double depth, Vec3& lo, Vec3&
     case Side::XHi: lo.x = hi.x - depth; break;
     case Side::YLo: hi.y = lo.y + depth; break;
     case Side::YHi: lo.y = hi.y - depth; break;
+    case Side::Bottom: hi.z = lo.z + depth; break;
   }
 }
 
 int CouplingGeometry::side_face(size_t c, Side s) const {
   if (s == Side::Top) return face_of_cell_[c];
-  return side_lookup_[4 * c + static_cast<size_t>(s) - 1];
+  return side_lookup_[5 * c + static_cast<size_t>(s) - 1];
 }
 
 double CouplingGeometry::depth_inside(Side s, const Vec3& x) const {
@@ -126,6 +144,7 @@ double CouplingGeometry::depth_inside(Side s, const Vec3& x) const {
     case Side::XHi: return hi_.x - x.x;
     case Side::YLo: return x.y - g_.oy();
     case Side::YHi: return hi_.y - x.y;
+    case Side::Bottom: return x.z - g_.oz();
     default: return top() - x.z;
   }
 }
@@ -144,20 +163,33 @@ CouplingGeometry::Beyond CouplingGeometry::beyond(const Vec3& x) const {
   // By the side it is furthest beyond: above the top, or beside the box next to a cell of it.
   const Vec3 lo = box_lo(), hi = box_hi();
   const double ex = std::max({lo.x - x.x, x.x - hi.x, 0.0}), ey = std::max({lo.y - x.y, x.y - hi.y, 0.0}),
-               ez = std::max(x.z - top(), 0.0);
+               ez = std::max(x.z - top(), 0.0), eb = bottom_faces_ > 0 ? std::max(lo.z - x.z, 0.0) : 0.0;
+  const double eps = 1e-9 * g_.cell_size();
+  const Vec3 in{std::clamp(x.x, lo.x + eps, hi.x - eps), std::clamp(x.y, lo.y + eps, hi.y - eps),
+                std::clamp(x.z, lo.z + eps, top() - eps)};
   Beyond b;
   if (ez > 0.0 && ez >= ex && ez >= ey) {
     b.where = Beyond::Above;
+  } else if (eb > 0.0 && eb >= ex && eb >= ey) {
+    // Under the box: below a bottom face it left the region downward; elsewhere (under a closed bottom, the
+    // outflow under an outlet) it is not beyond the region as before.
+    const int c = locate(in);
+    const int f = c < 0 ? -1 : side_face(static_cast<size_t>(c), Side::Bottom);
+    if (f >= 0) {
+      b.where = Beyond::Below;
+      b.face = f;
+    }
   } else if (ex > 0.0 || ey > 0.0) {
-    const double eps = 1e-9 * g_.cell_size();
-    const Vec3 in{std::clamp(x.x, lo.x + eps, hi.x - eps), std::clamp(x.y, lo.y + eps, hi.y - eps),
-                  std::clamp(x.z, lo.z + eps, top() - eps)};
     const int c = locate(in);
     const Side s = ex >= ey ? (x.x < lo.x ? Side::XLo : Side::XHi) : (x.y < lo.y ? Side::YLo : Side::YHi);
     b.where = Beyond::Beside;
     b.face = c < 0 ? -1 : side_face(static_cast<size_t>(c), s);
   }
   return b;
+}
+
+bool CouplingGeometry::below_a_bottom_face(const Vec3& x) const {
+  return bottom_faces_ > 0 && beyond(x).where == Beyond::Below;
 }
 
 bool CouplingGeometry::beside_a_closed_side(const Vec3& x) const {
@@ -171,7 +203,7 @@ int CouplingGeometry::exit_face(const Vec3& x) const {
   if (b.where == Beyond::Above) {
     const int f = face_column(x);
     if (f >= 0) return f;
-  } else if (b.where == Beyond::Beside && b.face >= 0) {
+  } else if ((b.where == Beyond::Beside || b.where == Beyond::Below) && b.face >= 0) {
     return b.face;
   }
   int best = -1;  // otherwise the nearest face (rare): brute force

@@ -5,8 +5,9 @@
 // one boundary face, its top face; the active cells below are correction
 // cells. Where the geometry goes on beside the box (a region that does not
 // span the vessel) the box's sides are boundary faces too (side_faces): mass
-// crosses them both ways like the top. Faces are numbered: the top faces in
-// the order of the transition cells, then the side faces; per-cell arrays
+// crosses them both ways like the top; so does an open bottom (bottom_faces).
+// Faces are numbered: the top faces in the order of the transition cells, then
+// the side faces, then the bottom faces; per-cell arrays
 // follow `cells` (ascending flat index i + nx (j + ny k)).
 #include <cmath>
 #include <cstdint>
@@ -17,8 +18,8 @@
 
 namespace mlcg::bus {
 
-// Which face of a cell a boundary face is; the inward normal of each is -z, +x, -x, +y, -y.
-enum class Side : uint8_t { Top = 0, XLo = 1, XHi = 2, YLo = 3, YHi = 4 };
+// Which face of a cell a boundary face is; the inward normal of each is -z, +x, -x, +y, -y, +z.
+enum class Side : uint8_t { Top = 0, XLo = 1, XHi = 2, YLo = 3, YHi = 4, Bottom = 5 };
 
 class CouplingGeometry {
  public:
@@ -36,14 +37,14 @@ class CouplingGeometry {
   static Vec3 inward(Side s);  // unit normal into the region of a face on side s
   Vec3 face_inward(size_t f) const { return inward(side_[f]); }
   int normal_axis(size_t f) const { return axis_of(side_[f]); }  // 0, 1, 2: x, y, z
-  static int axis_of(Side s) { return s == Side::Top ? 2 : s <= Side::XHi ? 0 : 1; }
+  static int axis_of(Side s) { return s == Side::Top || s == Side::Bottom ? 2 : s <= Side::XHi ? 0 : 1; }
   // The box of points within `depth` inside face f (the face's square times depth along its normal).
   void face_slab(size_t f, double depth, Vec3& lo, Vec3& hi) const { cell_slab(faces_[f], side_[f], depth, lo, hi); }
   // The same for side s of active cell c, a boundary face or not.
   void cell_slab(size_t c, Side s, double depth, Vec3& lo, Vec3& hi) const;
   // Boundary face on side s of active cell c, or -1.
   int side_face(size_t c, Side s) const;
-  // The box sides that have boundary faces, in the order of their first face.
+  // The box sides that have boundary faces (the open bottom among them), in the order of their first face.
   const std::vector<Side>& open_sides() const { return open_sides_; }
   // How far x lies inside the box's side s (negative: beyond it); for Side::Top, below the top.
   double depth_inside(Side s, const Vec3& x) const;
@@ -78,15 +79,20 @@ class CouplingGeometry {
   // leaving the vessel (a stream off a belt's end, out of a side-wall hole), not by crossing into the coarse
   // level's part of it.
   bool beside_a_closed_side(const Vec3& x) const;
+  // Whether a point below the box lies under a bottom face (it left the region downward, into the coarse
+  // level's part of the vessel); false without an open bottom.
+  bool below_a_bottom_face(const Vec3& x) const;
+  bool has_bottom_faces() const { return bottom_faces_ > 0; }
 
  private:
   // Where a point lies beyond the box: not at all (inside it or only below it), above the top, or beside a side
   // (face: that side's boundary face of the cell next to the point, -1 if none).
   struct Beyond {
-    enum Where { Not, Above, Beside } where = Not;
+    enum Where { Not, Above, Beside, Below } where = Not;  // Below: only under a bottom face
     int face = -1;
   };
   Beyond beyond(const Vec3& x) const;
+  void add_face(uint32_t c, Side s);  // boundary face on side s of active cell c, numbered next
 
   CouplingGrid g_;
   std::vector<uint32_t> cells_;
@@ -95,7 +101,8 @@ class CouplingGeometry {
   std::vector<Side> side_;     // side of each face
   size_t top_faces_ = 0;
   std::vector<Side> open_sides_;
-  std::vector<int> side_lookup_;  // 4 per active cell: its side faces (XLo, XHi, YLo, YHi) or -1
+  std::vector<int> side_lookup_;  // 5 per active cell: its side faces (XLo, XHi, YLo, YHi, Bottom) or -1
+  size_t bottom_faces_ = 0;
   std::vector<int> lookup_;  // flat index -> active cell or -1
   Vec3 hi_;                  // box_hi()
   double inv_h_ = 0.0;       // 1 / cell size, as locate() computes it

@@ -77,6 +77,15 @@ with tempfile.TemporaryDirectory() as tmp:
     write_run(os.path.join(tmp, "tilted"), beds)
     m = re.search(r"dynamic angle of repose: ([-0-9.]+)", run("drum_angle.py", os.path.join(tmp, "tilted")))
     expect_near("drum_angle.py on a segment tilted 30 deg", float(m.group(1)) if m else float("nan"), 30.0, 0.2)
+    # The same bed and gravity turned 20 deg about the drum's axis (a case with tilted gravity): still 30.
+    phi = math.radians(20.0)
+    turn = np.array([[math.cos(phi), 0.0, -math.sin(phi)], [0.0, 1.0, 0.0], [math.sin(phi), 0.0, math.cos(phi)]])
+    write_run(os.path.join(tmp, "turned"), [(t, b @ turn.T, r) for t, b, r in beds])
+    g = turn @ np.array([0.0, 0.0, -1.0])
+    m = re.search(r"dynamic angle of repose: ([-0-9.]+)",
+                  run("drum_angle.py", os.path.join(tmp, "turned"), "--gravity", "%.9f" % g[0], "%.9f" % g[2]))
+    expect_near("drum_angle.py --gravity on the bed and gravity turned 20 deg", float(m.group(1)) if m else float("nan"),
+                30.0, 0.2)
 
     # The flowing layer: 1 mm beads, centres from one radius under the chord down (the surface is the chord),
     # downslope velocity U to a = 2 mm under the chord, then U - omega (depth - a): the layer ends at a + U / omega.
