@@ -63,7 +63,7 @@ inline constexpr KeySpec kCouplingRegion[] = {
     {"open_bottom", "boolean", "`false`", "",
      "whether the region's bottom is a boundary face where the vessel goes on below it (a fine flowing layer over "
      "a coarse bulk): coarse mass rising through it is placed as fine particles, fine particles sinking through it "
-     "are handed back; refused for now (no shear is handed over through it)"},
+     "are handed back; refused for now (measured on a drum: the layer over it does not flow as it should)"},
 };
 
 inline constexpr KeySpec kLauncher[] = {
