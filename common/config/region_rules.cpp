@@ -361,7 +361,9 @@ void check_closed_moving(const Check& c, const CaseSpec& cs, const OutletScan& s
 // Measured (cases/drum with gravity turned by the angle of repose, so that its surface lies flat, a region
 // 1.4 cm deep over the whole surface with open_bottom, 4 s): the coarse level's surface 20.3 deg against the fully
 // resolved run's 31.5, its layer at 0.043 m/s against 0.204; with the fine particles over the bottom also drawn
-// toward the coarse velocity along it (an experiment, not kept) 19.6 deg. The cause is not found yet.
+// toward the coarse velocity along it (an experiment, not kept) 19.6 deg. With the coarse level uncorrected the
+// fine level's own surface tilts 9 deg toward the downhill end of the region: the fine layer piles up where it
+// should leave through the bottom and the downhill side, whose inward traction stands against the outflow.
 void check_open_bottom(const Check& c, const std::vector<const Outlet*>& judged, RegionRuleReport& out) {
   if (!c.r.open_bottom) return;
   if (!judged.empty())
