@@ -21,7 +21,7 @@ std::vector<double> to_vector(const google::protobuf::RepeatedField<double>& a) 
 Coupler::Region::Region(const RegionConfig& c, const FitsGeometry& fits)
     : cfg(c), geo(c.grid), planner(geo, c.planner, fits), pi(geo.faces(), c.pi), vint(geo.cells()) {}
 
-Coupler::Coupler(CouplerConfig cfg, FitsGeometry fits) : cfg_(std::move(cfg)) {
+Coupler::Coupler(CouplerConfig cfg, FitsGeometry fits, PoseWalls pose) : cfg_(std::move(cfg)), pose_(std::move(pose)) {
   if (cfg_.levels.size() < 2) throw std::invalid_argument("coupler: a hierarchy needs at least two levels");
   if (!(cfg_.interval > 0.0)) throw std::invalid_argument("coupler: the coupling interval must be positive");
   for (const auto& l : cfg_.levels) {
@@ -225,6 +225,8 @@ std::vector<bus::IntervalCommands> Coupler::advance(uint64_t k, const std::vecto
                                   std::to_string(k));
   std::vector<bus::IntervalCommands> out(cfg_.levels.size());
   for (auto& c : out) c.set_interval(k + 1);
+  // The fine level inserts at the start of interval k + 1: the walls are placed where they stand then.
+  if (pose_) pose_(static_cast<double>(k + 1) * cfg_.interval);
 
   for (size_t ri = 0; ri < regions_.size(); ++ri) {
     Region& r = *regions_[ri];

@@ -58,7 +58,9 @@ struct RegionLog {
 class Coupler {
  public:
   // Throws std::invalid_argument naming the inconsistency (grids, levels, intervals).
-  Coupler(CouplerConfig cfg, FitsGeometry fits);
+  // pose: places the walls where they are at a time (turning meshes), called with the time of each
+  // interval's insertion before it is planned; empty: the walls stay.
+  Coupler(CouplerConfig cfg, FitsGeometry fits, PoseWalls pose = {});
 
   const CouplerConfig& config() const { return cfg_; }
   int level_index(const std::string& name) const;  // -1 if unknown
@@ -108,6 +110,7 @@ class Coupler {
   static constexpr int64_t kMaxCrossings = 1'000'000'000'000;  // per face and radius bin in one interval
 
   CouplerConfig cfg_;
+  PoseWalls pose_;
   std::vector<std::unique_ptr<Region>> regions_;
 };
 

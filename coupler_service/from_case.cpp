@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <set>
 #include <stdexcept>
 
@@ -223,6 +224,46 @@ RegionConfig region_config(const config::CaseSpec& cs, const config::CouplingReg
   return rc;
 }
 
+// A region's cells, open sides and inside fractions are found once, with the walls where they stand at t = 0.
+// A mesh turning as a whole (a drum given as a mesh) may take part in a hierarchy only where that holds as it
+// turns: the grid found with the walls at eight poses over each turning mesh's revolution must be the same
+// cells and faces, every fraction within kTurnTolerance of the start's.
+constexpr double kTurnTolerance = 0.05;
+
+void check_turning(const config::CaseSpec& cs, const WallSet& walls, const WallSet& lids_closed,
+                   const ParticleSizes& sizes, const std::vector<RegionConfig>& regions) {
+  std::vector<double> times;
+  for (size_t w = 0; w < walls.walls(); ++w) {
+    const double spin = norm(walls.info(w).move_spin);
+    if (walls.info(w).rigid && spin > 0.0)
+      for (int j = 1; j < 8; ++j) times.push_back(j * 2.0 * std::numbers::pi / spin / 8.0);
+  }
+  WallSet posed = walls, lids = lids_closed;
+  for (const double t : times) {
+    posed.set_time(t);
+    lids.set_time(t);
+    for (size_t i = 0; i < regions.size(); ++i) {
+      const auto& rs = cs.coupling->regions[i];
+      const bus::CouplingGrid g = region_config(cs, rs, posed, lids, sizes, i).grid, &g0 = regions[i].grid;
+      const auto same = [](const auto& a, const auto& b, double tol) {
+        if (a.size() != b.size()) return false;
+        for (int k = 0; k < a.size(); ++k)
+          if (std::fabs(static_cast<double>(a[k]) - static_cast<double>(b[k])) > tol) return false;
+        return true;
+      };
+      if (!same(g.cells(), g0.cells(), 0.0) || !same(g.side_faces(), g0.side_faces(), 0.0) ||
+          !same(g.cell_inside(), g0.cell_inside(), kTurnTolerance) ||
+          !same(g.face_inside(), g0.face_inside(), kTurnTolerance))
+        throw std::invalid_argument(
+            rs.loc.str() + ": a mesh turning as a whole changes this region's cells as it turns (at t = " +
+            std::to_string(t) + " s its cells, open sides or their fractions inside the walls differ by more than " +
+            std::to_string(kTurnTolerance) + " from the start's), which the coupling takes once at the start; a "
+            "turning mesh may take part in a hierarchy where it is the same as it turns about its axis (a drum), "
+            "or run the scene on one level");
+    }
+  }
+}
+
 }  // namespace
 
 CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
@@ -249,9 +290,11 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
   out.fits = [walls](const Vec3& anchor, const Vec3& x, double r) {
     return !walls->touches(x, r) && !walls->crosses(anchor, x);
   };
+  if (walls->has_rigid()) out.pose = [walls](double t) { walls->set_time(t); };
   const ParticleSizes sizes = particle_sizes(cs, mt);
   for (const auto& rs : cp.regions)
     cfg.regions.push_back(region_config(cs, rs, *walls, lids_closed, sizes, cfg.regions.size()));
+  if (walls->has_rigid()) check_turning(cs, *walls, lids_closed, sizes, cfg.regions);
   return out;
 }
 

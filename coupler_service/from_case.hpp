@@ -15,10 +15,12 @@ struct CaseCoupling {
   CouplerConfig cfg;
   std::shared_ptr<const WallSet> walls;  // the case's walls without those an event removes
   FitsGeometry fits;                     // sphere clear of the walls and reachable from an anchor
+  PoseWalls pose;                        // places turning meshes where they are at a time; empty: none turn
 };
 
-// Throws std::invalid_argument when the case has no [coupling] section or a
-// region's box holds no cell inside the geometry (naming the region's line).
+// Throws std::invalid_argument when the case has no [coupling] section, a
+// region's box holds no cell inside the geometry, or a turning mesh changes a
+// region's cells as it turns (naming the region's line).
 CaseCoupling coupling_from_case(const config::CaseSpec& cs);
 
 // Coupling intervals between consistent checkpoints: [coupling] checkpoint_every (0 = the default:

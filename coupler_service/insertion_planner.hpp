@@ -67,6 +67,8 @@ struct FaceState {
 // inside the geometry: false if the sphere touches a wall or x is not reachable
 // from the anchor without crossing one.
 using FitsGeometry = std::function<bool(const Vec3& anchor, const Vec3& x, double r)>;
+// Places the walls FitsGeometry tests where they stand at time t [s] (meshes that turn as a whole).
+using PoseWalls = std::function<void(double t)>;
 
 class InsertionPlanner {
  public:

@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
 
     const auto cs = mlcg::config::load_case(case_file);
     auto cc = mlcg::coupling::coupling_from_case(cs);
-    mlcg::coupling::Coupler coupler(cc.cfg, cc.fits);
+    mlcg::coupling::Coupler coupler(cc.cfg, cc.fits, cc.pose);
     for (size_t r = 0; r < cc.cfg.regions.size(); ++r) {
       const auto& g = coupler.geometry(r);
       log->info("region {}: {} x {} x {} cells of {} m, {} inside the geometry, {} boundary faces at z = {} m", r,

@@ -560,33 +560,3 @@ TEST(CaseCoupling, TheSidesBeyondASideWallOutletAreNoBoundaryFaces) {
   for (size_t c = 0; c < geo.cells(); ++c) active_beyond += geo.cell_centre(c).x > 0.06;
   EXPECT_GT(active_beyond, 0u) << "the cells the stream passes beyond the hole";
 }
-
-// A fine layer over a coarse bulk (cases/drum with `open_bottom`): the bottom faces are those of the bottom
-// layer's cells under which the drum goes on, none where the drum's wall closes the box's bottom; without
-// open_bottom the bottom has no boundary face at all.
-TEST(CaseCoupling, AnOpenBottomHasAFaceUnderEveryBottomCellTheDrumGoesOnBelow) {
-  config::CaseSpec cs = config::load_case(std::string(MLCG_SOURCE_DIR) + "/cases/drum/mlcg.toml");
-  auto& r = cs.coupling->regions.at(0);
-  r.min = {-0.035, -0.015, -0.035};
-  r.max = {0.035, 0.015, 0.005};
-  r.cell_size = 0.01;
-  EXPECT_EQ(coupling_from_case(cs).cfg.regions.at(0).grid.bottom_faces_size(), 0);
-  r.open_bottom = true;
-  const bus::CouplingGeometry geo(coupling_from_case(cs).cfg.regions.at(0).grid);
-  size_t bottom = 0, bottom_cells = 0;
-  for (size_t c = 0; c < geo.cells(); ++c) bottom_cells += geo.cell_lo(c).z < -0.0349;
-  for (size_t f = 0; f < geo.faces(); ++f) {
-    if (geo.side_of_face(f) != bus::Side::Bottom) continue;
-    ++bottom;
-    Vec3 lo, hi;
-    geo.face_slab(f, 0.0, lo, hi);
-    EXPECT_DOUBLE_EQ(lo.z, -0.035);
-    // The drum (radius 4 cm about the y axis) goes on below z = -0.035 only over |x| < 1.94 cm.
-    EXPECT_LT(std::min(std::fabs(lo.x), std::fabs(hi.x)), std::sqrt(0.04 * 0.04 - 0.035 * 0.035))
-        << "face over x from " << lo.x << " to " << hi.x;
-  }
-  // The 5 columns over |x| < 2.5 cm, 3 across y; the bottom cells at x = +-3 cm lie inside the drum in part, but
-  // the drum's wall closes their bottom.
-  EXPECT_EQ(bottom, 15u);
-  EXPECT_EQ(bottom_cells, 21u);
-}

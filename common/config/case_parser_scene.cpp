@@ -91,9 +91,10 @@ void read_wall_motion(const Table& t, WallSpec& w, size_t levels) {
   t.check(key, !w.moves_rigidly() || !w.moving(),
           "the mesh has surface_velocity too; give either the surface's motion (the geometry in place) or the "
           "whole mesh's");
-  t.check(key, !w.moves_rigidly() || levels <= 1,
-          "a case of " + std::to_string(levels) + " levels cannot move a mesh yet: the coupler's insertion tests "
-          "the walls where they stand at the start; run the scene as one level");
+  t.check("move_velocity", w.move_velocity == Vec3{} || levels <= 1,
+          "a case of " + std::to_string(levels) + " levels cannot translate a mesh yet: the coupling regions' cells "
+          "are found with the walls where they stand at the start; a mesh may turn (move_angular_velocity) where "
+          "it stays the same as it turns (a drum), or run the scene as one level");
   if (w.type == WallType::Plane) {
     const Vec3 n = w.normal / norm(w.normal);
     const double along = dot(w.surface_velocity, n);

@@ -335,7 +335,8 @@ bool bottom_inside_vessel(const CaseSpec& cs, const CouplingRegionSpec& r, const
 void check_closed_moving(const Check& c, const CaseSpec& cs, const OutletScan& scan, const WallCrossing& crosses,
                          RegionRuleReport& out) {
   if (!scan.outlets.empty()) return;
-  const auto w = std::find_if(cs.walls.begin(), cs.walls.end(), [](const WallSpec& x) { return x.moving(); });
+  const auto w = std::find_if(cs.walls.begin(), cs.walls.end(),
+                              [](const WallSpec& x) { return x.moving() || x.moves_rigidly(); });
   if (w == cs.walls.end()) return;
   if (c.r.open_bottom) return;  // refused for every scene (check_open_bottom)
   if (!bottom_inside_vessel(cs, c.r, crosses)) {
