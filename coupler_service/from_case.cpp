@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <set>
 #include <stdexcept>
@@ -225,21 +226,70 @@ RegionConfig region_config(const config::CaseSpec& cs, const config::CouplingReg
 }
 
 // A region's cells, open sides and inside fractions are found once, with the walls where they stand at t = 0.
-// A mesh turning as a whole (a drum given as a mesh) may take part in a hierarchy only where that holds as it
-// turns: the grid found with the walls at eight poses over each turning mesh's revolution must be the same
-// cells and faces, every fraction within kTurnTolerance of the start's.
-constexpr double kTurnTolerance = 0.05;
+// A mesh moving as a whole may take part in a hierarchy only where that holds as it moves: the grid found with
+// the walls at later poses must be the same cells and faces, every fraction within kPoseTolerance of the start's.
+constexpr double kPoseTolerance = 0.05;
+// A translating mesh is posed each quarter of the smallest cell its farthest point moves, up to this many poses.
+constexpr size_t kMaxPoses = 400;
 
-void check_turning(const config::CaseSpec& cs, const WallSet& walls, const WallSet& lids_closed,
-                   const ParticleSizes& sizes, const std::vector<RegionConfig>& regions) {
+// The latest time the run reaches: [time] end, or its event's time (a hierarchy's events fire at `at`) plus
+// `plus`; infinity when neither is known.
+double run_end(const config::CaseSpec& cs) {
+  if (cs.time.end >= 0.0) return cs.time.end;
+  for (const auto& e : cs.events)
+    if (e.name == cs.time.end_event && e.at >= 0.0) return e.at + cs.time.end_plus;
+  return std::numeric_limits<double>::infinity();
+}
+
+double box_distance(const Vec3& p, const Vec3& lo, const Vec3& hi) {
+  const Vec3 d{std::max({lo.x - p.x, 0.0, p.x - hi.x}), std::max({lo.y - p.y, 0.0, p.y - hi.y}),
+               std::max({lo.z - p.z, 0.0, p.z - hi.z})};
+  return norm(d);
+}
+
+// The times at which the regions are found again: eight poses over each turning mesh's revolution; for a mesh
+// that translates, every quarter cell its farthest point moves while it lies within a cell of a region's box
+// (a mesh that never comes near a region cannot change it).
+std::vector<double> pose_times(const config::CaseSpec& cs, const WallSet& walls) {
+  double h = std::numeric_limits<double>::infinity();
+  for (const auto& rs : cs.coupling->regions) h = std::min(h, rs.cell_size);
   std::vector<double> times;
   for (size_t w = 0; w < walls.walls(); ++w) {
-    const double spin = norm(walls.info(w).move_spin);
-    if (walls.info(w).rigid && spin > 0.0)
+    const auto& in = walls.info(w);
+    const double spin = norm(in.move_spin), speed = norm(in.move_velocity);
+    if (!in.rigid) continue;
+    if (spin > 0.0 && speed == 0.0)
       for (int j = 1; j < 8; ++j) times.push_back(j * 2.0 * std::numbers::pi / spin / 8.0);
+    if (speed == 0.0) continue;
+    const double end = run_end(cs);
+    if (!std::isfinite(end))
+      throw std::invalid_argument(cs.path + ": wall '" + in.name + "' travels (move_velocity) in a case of several "
+                                  "levels whose end is not a time: give [time] end in s, or an end event with `at`");
+    const double step = 0.25 * h / (speed + spin * in.reach);
+    std::vector<double> near;
+    for (double t = step; t < end + step; t += step) {
+      const Vec3 centre = in.move_center + std::min(t, end) * in.move_velocity;
+      for (const auto& rs : cs.coupling->regions)
+        if (box_distance(centre, rs.min, rs.max) <= in.reach + rs.cell_size) {
+          near.push_back(std::min(t, end));
+          break;
+        }
+      if (near.size() > kMaxPoses)
+        throw std::invalid_argument(
+            cs.path + ": wall '" + in.name + "' travels (move_velocity) near a coupling region for longer than " +
+            std::to_string(kMaxPoses) + " poses of a quarter cell each (to t = " + std::to_string(t) +
+            " s); the regions' cells are found once at the start, so a mesh may travel only where it stays away "
+            "from every region, or the same to it; or run the scene on one level");
+    }
+    times.insert(times.end(), near.begin(), near.end());
   }
+  return times;
+}
+
+void check_moving_meshes(const config::CaseSpec& cs, const WallSet& walls, const WallSet& lids_closed,
+                         const ParticleSizes& sizes, const std::vector<RegionConfig>& regions) {
   WallSet posed = walls, lids = lids_closed;
-  for (const double t : times) {
+  for (const double t : pose_times(cs, walls)) {
     posed.set_time(t);
     lids.set_time(t);
     for (size_t i = 0; i < regions.size(); ++i) {
@@ -252,14 +302,14 @@ void check_turning(const config::CaseSpec& cs, const WallSet& walls, const WallS
         return true;
       };
       if (!same(g.cells(), g0.cells(), 0.0) || !same(g.side_faces(), g0.side_faces(), 0.0) ||
-          !same(g.cell_inside(), g0.cell_inside(), kTurnTolerance) ||
-          !same(g.face_inside(), g0.face_inside(), kTurnTolerance))
+          !same(g.cell_inside(), g0.cell_inside(), kPoseTolerance) ||
+          !same(g.face_inside(), g0.face_inside(), kPoseTolerance))
         throw std::invalid_argument(
-            rs.loc.str() + ": a mesh turning as a whole changes this region's cells as it turns (at t = " +
+            rs.loc.str() + ": a mesh moving as a whole changes this region's cells as it moves (at t = " +
             std::to_string(t) + " s its cells, open sides or their fractions inside the walls differ by more than " +
-            std::to_string(kTurnTolerance) + " from the start's), which the coupling takes once at the start; a "
-            "turning mesh may take part in a hierarchy where it is the same as it turns about its axis (a drum), "
-            "or run the scene on one level");
+            std::to_string(kPoseTolerance) + " from the start's), which the coupling takes once at the start; a "
+            "mesh may move in a hierarchy where it is the same to every region as it moves (a drum turning about "
+            "its axis, a part travelling away from the regions), or run the scene on one level");
     }
   }
 }
@@ -294,7 +344,7 @@ CaseCoupling coupling_from_case(const config::CaseSpec& cs) {
   const ParticleSizes sizes = particle_sizes(cs, mt);
   for (const auto& rs : cp.regions)
     cfg.regions.push_back(region_config(cs, rs, *walls, lids_closed, sizes, cfg.regions.size()));
-  if (walls->has_rigid()) check_turning(cs, *walls, lids_closed, sizes, cfg.regions);
+  if (walls->has_rigid()) check_moving_meshes(cs, *walls, lids_closed, sizes, cfg.regions);
   return out;
 }
 

@@ -1,5 +1,5 @@
 // The coupler's grids read from a case where the walls move: an open bottom under a drum's layer, and a drum
-// given as a mesh turning as a whole (from_case.cpp). The grids of outlet scenes are test_coupler.cpp's.
+// given as a mesh turning as a whole, a mesh travelling as a whole (from_case.cpp). The grids of outlet scenes are test_coupler.cpp's.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -65,8 +65,61 @@ TEST(CaseCoupling, AMeshTurningAsAWholeTakesPartWhereTheRegionsCellsStayTheSame)
     coupling_from_case(cs);
     ADD_FAILURE() << "a drum turning off its axis was accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("a mesh turning as a whole changes this region's cells"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("a mesh moving as a whole changes this region's cells"), std::string::npos)
         << e.what();
     EXPECT_NE(std::string(e.what()).find("mesh_mlcg.toml:"), std::string::npos) << e.what();
+  }
+}
+
+// A mesh travelling as a whole in a hierarchy (move_velocity): the regions' cells are found once, so the case is
+// accepted where the mesh stays more than a cell from every region's box up to the run's end, and refused, naming
+// the region and when, where it sweeps through one. The drum at rest, a second copy of its mesh 30 cm off along x stands in
+// for a part moving in the coarse bulk: travelling away it is accepted (and posed where it has gone); travelling
+// at the slice it reaches the region's box at t = 2.35 s (centre at x = 6.5 cm) and is refused there; a case whose
+// end is no time cannot be checked and is refused.
+TEST(CaseCoupling, AMeshTravellingAsAWholeTakesPartWhereItStaysAwayFromTheRegions) {
+  config::CaseSpec cs = config::load_case(std::string(MLCG_SOURCE_DIR) + "/cases/drum/mesh_mlcg.toml");
+  ASSERT_DOUBLE_EQ(cs.time.end, 4.0);
+  config::WallSpec part;
+  for (auto& w : cs.walls)
+    if (w.name == "drum") {
+      w.move_angular_velocity = {};  // the drum at rest: only the travelling part is posed
+      part = w;
+    }
+  ASSERT_EQ(part.name, "drum");
+  part.name = "part";
+  part.offset = part.offset + Vec3{0.3, 0.0, 0.0};
+  part.move_angular_velocity = {};
+  part.move_center = part.offset;
+  const auto with_part = [&](const Vec3& u) {
+    config::CaseSpec c = cs;
+    part.move_velocity = u;
+    c.walls.push_back(part);
+    return c;
+  };
+  const CaseCoupling away = coupling_from_case(with_part({0.1, 0.0, 0.0}));
+  const int w = away.walls->find("part");
+  ASSERT_GE(w, 0);
+  away.pose(1.0);
+  EXPECT_NEAR(away.walls->info(static_cast<size_t>(w)).to_world(part.offset).x, 0.4, 1e-12);
+  try {
+    coupling_from_case(with_part({-0.1, 0.0, 0.0}));
+    ADD_FAILURE() << "a mesh travelling through the slice was accepted";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what(), at = "as it moves (at t = ";
+    ASSERT_NE(what.find("a mesh moving as a whole changes this region's cells"), std::string::npos) << what;
+    EXPECT_NE(what.find("mesh_mlcg.toml:"), std::string::npos) << what;
+    const double t = std::stod(what.substr(what.find(at) + at.size()));
+    EXPECT_GT(t, 2.3) << what;  // the part is more than a cell away before it reaches the box
+    EXPECT_LT(t, 2.7) << what;
+  }
+  config::CaseSpec no_end = with_part({0.1, 0.0, 0.0});
+  no_end.time.end = -1.0;
+  no_end.time.end_event.clear();
+  try {
+    coupling_from_case(no_end);
+    ADD_FAILURE() << "a travelling mesh in a case without an end time was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("whose end is not a time"), std::string::npos) << e.what();
   }
 }

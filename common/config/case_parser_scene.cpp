@@ -69,7 +69,7 @@ namespace {
 // A wall's surface motion: a plane or mesh slides along itself (a belt), a surface of revolution turns about
 // its own axis (a drum); either way the geometry stays where it is. A mesh's velocity is checked against its
 // triangles when it is read (scene/walls_from_case.cpp).
-void read_wall_motion(const Table& t, WallSpec& w, size_t levels) {
+void read_wall_motion(const Table& t, WallSpec& w) {
   w.surface_velocity = t.value<Vec3>("surface_velocity");
   w.angular_velocity = t.value<double>("angular_velocity");
   const bool flat = w.type == WallType::Plane || w.type == WallType::Mesh;
@@ -91,10 +91,6 @@ void read_wall_motion(const Table& t, WallSpec& w, size_t levels) {
   t.check(key, !w.moves_rigidly() || !w.moving(),
           "the mesh has surface_velocity too; give either the surface's motion (the geometry in place) or the "
           "whole mesh's");
-  t.check("move_velocity", w.move_velocity == Vec3{} || levels <= 1,
-          "a case of " + std::to_string(levels) + " levels cannot translate a mesh yet: the coupling regions' cells "
-          "are found with the walls where they stand at the start; a mesh may turn (move_angular_velocity) where "
-          "it stays the same as it turns (a drum), or run the scene as one level");
   if (w.type == WallType::Plane) {
     const Vec3 n = w.normal / norm(w.normal);
     const double along = dot(w.surface_velocity, n);
@@ -167,7 +163,7 @@ void read_walls(const Table& root, CaseSpec& spec, Names& names) {
         break;
       }
     }
-    read_wall_motion(t, w, spec.levels.size());
+    read_wall_motion(t, w);
     w.loc = t.loc();
     spec.walls.push_back(w);
   }

@@ -19,9 +19,9 @@ inline constexpr KeySpec kWall[] = {
     {"angular_velocity", "number", "`0`", "cylinder, cone, disk",
      "the rate the wall turns about its own axis in rad/s, right-handed about axis (a drum)", kAny, "rad/s"},
     // The whole mesh moves (its geometry too), from t = 0.
-    {"move_velocity", "vector", "`[0, 0, 0]`", "mesh, one level",
+    {"move_velocity", "vector", "`[0, 0, 0]`", "mesh",
      "the velocity the whole mesh moves at in m/s, from t = 0 (a pusher, a piston)"},
-    {"move_angular_velocity", "vector", "`[0, 0, 0]`", "mesh, one level",
+    {"move_angular_velocity", "vector", "`[0, 0, 0]`", "mesh",
      "the rate the whole mesh turns at in rad/s, a vector along the axis (right-handed), from t = 0"},
     {"move_center", "vector", "`[0, 0, 0]`", "", "where the axis of move_angular_velocity passes at t = 0 (m)"},
 };
