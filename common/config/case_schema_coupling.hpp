@@ -21,6 +21,9 @@ inline constexpr KeySpec kCoupling[] = {
     // The statistics' window moves by `lead`: results depend on it (never on timing).
     {"lead", "number", "`0.5`", "0 to 0.5", "the share of each interval by which a level sends its statistics early",
      closed(0.0, 0.5), "of the interval"},
+    // Each sample is a pass over the level's particles in the region and a stress-accumulating force step.
+    {"samples", "integer", "`2`", "1 to 64", "the cell samples per coupling interval", closed(1.0, 64.0), "",
+     "the number of cell samples per interval"},
     {"regions", "array of tables", "*required*", "at least one", "one [[coupling.regions]] entry per finer level"},
 };
 

@@ -273,6 +273,8 @@ struct CouplingSpec {              // [coupling]
   double lead = 0.5;               // lead in [0, 0.5]: each level sends its statistics floor(lead x its steps per
                                    //   interval) steps before the interval ends and counts those steps into the
                                    //   next interval's, so that the coupler's answer overlaps them
+  int samples = 2;                 // samples in [1, 64]: cell samples per interval, evenly over the steps up to
+                                   //   the statistics (the last of them always samples); each is a stress step
   std::vector<CouplingRegionSpec> regions;
   SourceLoc loc;
   bool operator==(const CouplingSpec&) const = default;

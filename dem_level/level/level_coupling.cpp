@@ -27,7 +27,6 @@
 namespace mlcg {
 
 namespace {
-constexpr uint64_t kSamplesPerInterval = 2;  // cell samples per coupling interval (the last step always samples); each costs a stress step
 
 }  // namespace
 
@@ -131,7 +130,9 @@ void Level::connect_coupler() {
   c->interval = w.coupling_interval();
   const double lead = cs_.coupling ? cs_.coupling->lead : 0.0;
   c->send_at = c->steps - std::min<uint64_t>(c->steps - 1, static_cast<uint64_t>(std::floor(lead * static_cast<double>(c->steps))));
-  c->sample_every = std::max<uint64_t>(1, c->send_at / kSamplesPerInterval);
+  // [coupling] samples: evenly over the steps up to the statistics, the last of them always sampling.
+  const uint64_t samples = static_cast<uint64_t>(cs_.coupling ? cs_.coupling->samples : 2);
+  c->sample_every = std::max<uint64_t>(1, c->send_at / samples);
   c->k = start;
   c->inserted = coupling_restored_.inserted;  // the run before the checkpoint's, so the report covers the whole run
   c->worst_overlap = coupling_restored_.worst_insert_overlap;
