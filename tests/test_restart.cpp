@@ -18,6 +18,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "io/h5.hpp"
 #include "files.hpp"
@@ -335,18 +336,24 @@ config::CaseSpec thrown_lattice() {
   return cs;
 }
 
+// A run() of `steps` steps into dir, no snapshots or checkpoints.
+LevelOptions driving_options(config::CaseSpec& cs, const fs::path& dir, uint64_t steps) {
+  cs.output.snapshot_interval = 0.0;
+  cs.output.checkpoint_interval = 0.0;
+  LevelOptions o = quiet();
+  o.out_dir = dir;
+  o.max_steps = static_cast<int64_t>(steps);
+  return o;
+}
+
 }  // namespace
 
 TEST(Driving, RunEqualsStepOnceBitForBitWithTheSeriesReadingTheWholeStep) {
   const uint64_t steps = 1501, every = 37;
   auto cs = thrown_lattice();
   cs.output.stats_interval = static_cast<double>(every) * cs.levels[0].dt;
-  cs.output.snapshot_interval = 0.0;
-  cs.output.checkpoint_interval = 0.0;
   const fs::path dir = fresh_temp_path("driving");
-  LevelOptions o = quiet();
-  o.out_dir = dir;
-  o.max_steps = static_cast<int64_t>(steps);
+  LevelOptions o = driving_options(cs, dir, steps);
   o.owed_kick_above = 100;  // the owed kick (large levels only by default) for these 216 particles
   Level by_run(cs, o);
   ASSERT_EQ(by_run.run(), RunStatus::StepLimit);
@@ -375,5 +382,34 @@ TEST(Driving, RunEqualsStepOnceBitForBitWithTheSeriesReadingTheWholeStep) {
     for (int c = 0; c < 3; ++c) std::getline(row, cell, ',');
     EXPECT_EQ(cell, energies[r]) << "row at step " << (r + 1) * every;
   }
+  fs::remove_all(dir);
+}
+
+// A level between calibrate_kick_above and owed_kick_above particles per rank times both integrations on its
+// first steps (3 blocks of 20 steps each way, alternating) and keeps the faster: whichever it keeps, and while it
+// alternates, the state is the step-by-step run's to the bit, and the summary names the choice and its times.
+TEST(Driving, AnIntegrationChosenByTimingOnThisHostGivesTheStepByStepStateBitForBit) {
+  const uint64_t steps = 401;
+  auto cs = thrown_lattice();
+  const fs::path dir = fresh_temp_path("kick_choice");
+  LevelOptions o = driving_options(cs, dir, steps);
+  o.calibrate_kick_above = 100;  // these 216 particles are timed both ways
+  o.owed_kick_above = 1000000;
+  Level timed(cs, o);
+  ASSERT_EQ(timed.run(), RunStatus::StepLimit);
+  Level by_step(cs, quiet());
+  for (uint64_t s = 1; s <= steps; ++s) by_step.step_once();
+  const Particles &a = timed.particles(), &b = by_step.particles();
+  expect_bitwise(a.x, b.x, "x");
+  expect_bitwise(a.v, b.v, "v");
+  expect_bitwise(a.omega, b.omega, "omega");
+  expect_bitwise(a.f, b.f, "f");
+  const auto integration = read_json(dir / "summary.json")["levels"][0]["performance"]["integration"];
+  EXPECT_EQ(integration["chosen_by"], "calibration") << integration.dump();
+  const std::string kick = integration["kick"];
+  EXPECT_TRUE(kick == "fused" || kick == "split") << kick;
+  EXPECT_GT(integration["split_seconds"].get<double>(), 0.0);
+  EXPECT_GT(integration["fused_seconds"].get<double>(), 0.0);
+  EXPECT_EQ(kick == "fused", integration["fused_seconds"].get<double>() < integration["split_seconds"].get<double>());
   fs::remove_all(dir);
 }

@@ -287,8 +287,22 @@ bool Level::may_owe_kick() const {
   // Nothing but the next step's first half may come between: no coupler or energy account (they
   // read and add forces between the halves), no events or insertions (they read speeds, add particles).
   // The same answer on every rank (settle_kick is collective): the size is the global one.
-  return !coupled_ && !account_ && scene_.events.empty() && scene_.ins.empty() &&
-         stepper_.global_particles > opt_.owed_kick_above * comm_.size();
+  return owe_kick_allowed() && kick_.started() && kick_.mode() == KickChoice::Mode::Fused;
+}
+
+bool Level::owe_kick_allowed() const {
+  return !coupled_ && !account_ && scene_.events.empty() && scene_.ins.empty();
+}
+
+void Level::book_kick_step() {
+  if (!kick_.after_step(out_.times.integrate)) return;
+  // One answer on every rank: rank 0's, from the times summed over the ranks.
+  const double split = comm_.sum(kick_.split_seconds()), fused = comm_.sum(kick_.fused_seconds());
+  kick_.decide(comm_.max(comm_.rank() == 0 && fused < split ? 1.0 : 0.0) > 0.0);
+  log_->info("integration: {} per step, timed on this host over {} steps each way (two passes {:.4g} s, one fused "
+             "pass {:.4g} s of integration, all ranks)",
+             kick_.mode() == KickChoice::Mode::Fused ? "one fused pass" : "two passes",
+             KickChoice::kBlock * KickChoice::kRounds, split, fused);
 }
 
 double Level::pay_owed_kick() {
@@ -340,6 +354,9 @@ void Level::step_forces() {
 }
 
 void Level::step(bool may_owe) {
+  if (may_owe && !kick_.started() && owe_kick_allowed())
+    kick_.start(static_cast<double>(stepper_.global_particles) / comm_.size(), opt_.calibrate_kick_above,
+                opt_.owed_kick_above, out_.times.integrate);
   if (coupled_) coupling_begin_step();
   pre_step();
   double sum = 0.0, owed_sum = 0.0;
@@ -404,6 +421,7 @@ void Level::step(bool may_owe) {
   }
   if (problem.empty() && !std::isfinite(sum)) problem = non_finite("velocity", run_.step);
   guard(problem, std::isfinite(sum) ? st.max_overlap_ratio : 2.0);
+  if (may_owe && kick_.calibrating()) book_kick_step();
   ++run_.step;
   ++steps_this_process_;
   run_.particle_steps += static_cast<uint64_t>(stepper_.global_particles);

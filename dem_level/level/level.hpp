@@ -24,6 +24,7 @@
 
 #include "config/case_spec.hpp"
 #include "level/energy_account.hpp"
+#include "level/kick_choice.hpp"
 #include "level/level_parts.hpp"
 #include "parallel/comm.hpp"
 
@@ -45,9 +46,11 @@ struct LevelOptions {
   std::string coupler;             // coupler endpoint: register there and run coupled; empty = uncoupled
   // run() leaves a step's second half-kick to the next step's first half above this many particles
   // per rank (see Level::step; tests lower it to reach that path with few particles). In-process A/B,
-  // 2026-12-03, per step: 1,080,000 particles -4.5 to -5.6 %; the 30,000 tile -0.7 to +2.7 % and the
-  // 29,451 silo bed +1 to +3 % (their arrays stay in the caches, where two short passes beat one long one).
+  // 2026-12-03 on an AMD host, per step: 1,080,000 particles -4.5 to -5.6 %; the 30,000 tile -0.7 to +2.7 %
+  // and the 29,451 silo bed +1 to +3 %; on an Intel host (2 MiB L2) the bed's integration -39 %. Between
+  // calibrate_kick_above and owed_kick_above the level times both on its first steps (kick_choice.hpp).
   int64_t owed_kick_above = 100000;
+  int64_t calibrate_kick_above = 5000;
 };
 
 // Raised when the level stops on a guard: NaN/inf or an excessive overlap.
@@ -204,6 +207,8 @@ class Level {
   void timed_rebuild(bool for_insert);  // rebuild(), its time also booked to the insertion that asked for it
   void step_forces();  // contact forces (with stress on sample steps), then the controller's
   bool may_owe_kick() const;
+  bool owe_kick_allowed() const;  // nothing reads the velocities between two steps of run()
+  void book_kick_step();          // a calibrating step's integration time; decides after the last
   void settle_kick();
   double pay_owed_kick();
   // Collective stop: throws GuardStop on every rank if any rank has a problem.
@@ -274,6 +279,7 @@ class Level {
   bool interrupted_ = false;
   int64_t steps_this_process_ = 0;
   bool kick_owed_ = false;          // see step()
+  KickChoice kick_;                 // whether run()'s steps owe their kick: by size, or timed on this host
 
   std::shared_ptr<spdlog::logger> log_;
   Reporting out_;

@@ -403,7 +403,12 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
        run_.step > 0 ? 1000.0 * static_cast<double>(run_.rebuilds) / static_cast<double>(run_.step) : 0.0},
       {"neighbour_pairs_per_particle", sums[7] / n_now},
       {"bytes_per_particle", sums[8] / n_now},
-      {"ranks", comm_.size()}};
+      {"ranks", comm_.size()},
+      {"integration",
+       {{"kick", kick_.started() ? kick_.name() : "split"},
+        {"chosen_by", kick_.started() ? kick_.chosen_by() : "the scene (velocities read between steps)"},
+        {"split_seconds", kick_.split_seconds()},
+        {"fused_seconds", kick_.fused_seconds()}}}};
   if (coupled_)
     lv["coupling"] = {{"intervals", cr.intervals}, {"inserted_from_coupler", cr.inserted},
                       {"largest_insert_overlap_of_diameter", cr.worst_insert_overlap},
