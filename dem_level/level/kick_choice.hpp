@@ -7,7 +7,6 @@
 // `fuse_above` particles per rank fuses; one between `calibrate_above` and `fuse_above` times both ways on its
 // first steps and keeps the faster; a smaller one (its arrays in the caches) keeps two passes.
 #include <cstdint>
-#include <string>
 
 namespace mlcg {
 

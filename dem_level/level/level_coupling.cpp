@@ -26,10 +26,6 @@
 
 namespace mlcg {
 
-namespace {
-
-}  // namespace
-
 struct Level::Coupled {
   std::unique_ptr<coupling::Client> client;
   std::vector<coupling::GridLink> grids;
@@ -131,7 +127,7 @@ void Level::connect_coupler() {
   const double lead = cs_.coupling ? cs_.coupling->lead : 0.0;
   c->send_at = c->steps - std::min<uint64_t>(c->steps - 1, static_cast<uint64_t>(std::floor(lead * static_cast<double>(c->steps))));
   // [coupling] samples: evenly over the steps up to the statistics, the last of them always sampling.
-  const uint64_t samples = static_cast<uint64_t>(cs_.coupling ? cs_.coupling->samples : 2);
+  const uint64_t samples = static_cast<uint64_t>(cs_.coupling ? cs_.coupling->samples : config::CouplingSpec{}.samples);
   c->sample_every = std::max<uint64_t>(1, c->send_at / samples);
   c->k = start;
   c->inserted = coupling_restored_.inserted;  // the run before the checkpoint's, so the report covers the whole run
