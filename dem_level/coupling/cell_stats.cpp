@@ -22,6 +22,11 @@ CellStats::CellStats(const bus::CouplingGeometry& geo) : grid_(box_of(geo)) {
     active_.push_back(geo.flat(c));
     inside_.push_back(geo.inside_volume(c));
   }
+  // The coupler reads a cell's stress only under a boundary face (the transition layer's controller): the
+  // other cells' particles skip the stress sums.
+  std::vector<char> wanted(grid_.params().cells(), 0);
+  for (size_t c = 0; c < geo.cells(); ++c) wanted[geo.flat(c)] = geo.is_transition(c) ? 1 : 0;
+  grid_.set_stress_cells(std::move(wanted));
 }
 
 void CellStats::sample(const Particles& p, const std::vector<double>& stress6, const Comm& comm,

@@ -6,7 +6,9 @@
 // case's cell grids: a CellGrid over the coupling box does the per-particle
 // work, and only the active cells' sums travel between ranks. Stress and
 // volume fraction are over the part of each cell inside the walls
-// (CouplingGrid.cell_inside), floored at kMinInside of the cube.
+// (CouplingGrid.cell_inside), floored at kMinInside of the cube. The stress is
+// summed only in the transition cells (those under a boundary face, the only
+// ones whose stress the coupler reads); it is 0 in the others.
 #include <cstdint>
 #include <vector>
 

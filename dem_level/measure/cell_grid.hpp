@@ -59,6 +59,9 @@ class CellGrid {
   void local_sample(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
                     std::vector<double>& max_speed, const std::vector<uint32_t>* only = nullptr) const;
   void add_sample(const std::vector<double>& sums, const std::vector<double>& max_speed);
+  // Cells (flat index, non-zero = wanted) whose stress is summed; the others' stress stays 0 and their
+  // particles skip the stress's 12 sums. Empty (the default): every cell.
+  void set_stress_cells(std::vector<char> wanted);
   GridAverages take_averages();  // averages since the last call, then resets
   State& state() { return st_; }
   const State& state() const { return st_; }
@@ -66,6 +69,7 @@ class CellGrid {
  private:
   GridParams prm_;
   State st_;
+  std::vector<char> stress_cells_;
 };
 
 }  // namespace mlcg
