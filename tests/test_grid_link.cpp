@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/spheres.hpp"
+#include "coupling/cell_stats.hpp"
 #include "coupling/controller_forces.hpp"
 #include "coupling/face_flux.hpp"
 #include "coupling/grid_link.hpp"
@@ -334,4 +335,54 @@ TEST(GridLink, InsertionListRemovalAndOccupantsAreCounted) {
 
   EXPECT_FALSE(GridLink(1, make_grid({0, 0, 0}, 0.01, 1, 1, 1, {1e-3, 2e-3}), Role::Coarse).leaves({0, 0, 1.0}));
   EXPECT_THROW(GridLink(1, grid, Role::Coarse), std::invalid_argument);  // no radius bins
+}
+
+// --- cell statistics -----------------------------------------------------------
+
+// The coupler reads the stress of every cell that holds a boundary face, the top's and an open side's (the
+// transition layer's controllers): those cells carry the stress of Eq. 8, summed here particle by particle;
+// a cell without a face carries none.
+TEST(CellStats, EveryBoundaryFacesCellCarriesItsStressAndNoOtherCellDoes) {
+  auto grid = make_grid({0, 0, 0}, 0.01, 2, 2, 2);
+  grid.add_side_faces(4 * 3 + 1);  // +x side of cell (1, 1, 0)
+  const bus::CouplingGeometry geo(grid);
+  ASSERT_EQ(geo.faces(), 5u);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(0.0005, 0.0195), s(-1.0, 1.0);
+  Particles p;
+  for (int k = 0; k < 800; ++k) add(p, {u(rng), u(rng), u(rng)}, 4e-4, {0.2 * s(rng), 0.2 * s(rng), -0.3 + 0.1 * s(rng)});
+  std::vector<double> stress6(6 * p.size());
+  for (double& v : stress6) v = 1e-7 * s(rng);
+  CellStats cs(geo);
+  cs.sample(p, stress6, Comm{});
+  const CellMeans m = cs.take();
+  ASSERT_EQ(m.stress.size(), 6 * geo.cells());
+  std::vector<char> has_face(geo.cells(), 0);
+  for (size_t f = 0; f < geo.faces(); ++f) has_face[geo.cell_of_face(f)] = 1;
+  ASSERT_EQ(has_face[3], 1);  // the open side's cell, below the top layer
+  for (size_t c = 0; c < geo.cells(); ++c) {
+    double mass = 0.0, want[6] = {0, 0, 0, 0, 0, 0};
+    Vec3 mom;
+    const auto in_cell = [&](size_t i) { return geo.locate(p.x[i]) == static_cast<int>(c); };
+    for (size_t i = 0; i < p.size(); ++i)
+      if (in_cell(i)) {
+        mass += p.mass[i];
+        mom += p.mass[i] * p.v[i];
+      }
+    ASSERT_GT(mass, 0.0) << "cell " << c;
+    const Vec3 mean = mom / mass;
+    const double vol = 1e-6 * std::max(geo.inside_volume(c), CellStats::kMinInside);
+    for (size_t i = 0; i < p.size(); ++i)
+      if (in_cell(i)) {
+        const Vec3 w = p.v[i] - mean;
+        const double k[6] = {w.x * w.x, w.y * w.y, w.z * w.z, w.x * w.y, w.x * w.z, w.y * w.z};
+        for (int q = 0; q < 6; ++q) want[q] += (p.mass[i] * k[q] + stress6[6 * i + q]) / vol;
+      }
+    for (int q = 0; q < 6; ++q) {
+      const double got = m.stress[6 * c + q];
+      if (has_face[c]) EXPECT_NEAR(got, want[q], 1e-9 * (std::fabs(want[q]) + 1.0)) << "cell " << c << " component " << q;
+      else EXPECT_EQ(got, 0.0) << "cell " << c << " component " << q;
+    }
+    for (int q = 0; q < 3; ++q) EXPECT_NEAR(m.velocity[3 * c + q], mean[q], 1e-12) << "cell " << c;
+  }
 }

@@ -22,10 +22,10 @@ CellStats::CellStats(const bus::CouplingGeometry& geo) : grid_(box_of(geo)) {
     active_.push_back(geo.flat(c));
     inside_.push_back(geo.inside_volume(c));
   }
-  // The coupler reads a cell's stress only under a boundary face (the transition layer's controller): the
-  // other cells' particles skip the stress sums.
+  // The coupler reads a cell's stress only where a boundary face lies (the top's and the open sides'
+  // transition layers): the other cells' particles skip the stress sums.
   std::vector<char> wanted(grid_.params().cells(), 0);
-  for (size_t c = 0; c < geo.cells(); ++c) wanted[geo.flat(c)] = geo.is_transition(c) ? 1 : 0;
+  for (size_t f = 0; f < geo.faces(); ++f) wanted[geo.flat(geo.cell_of_face(f))] = 1;
   grid_.set_stress_cells(std::move(wanted));
 }
 

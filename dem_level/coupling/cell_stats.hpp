@@ -7,7 +7,7 @@
 // work, and only the active cells' sums travel between ranks. Stress and
 // volume fraction are over the part of each cell inside the walls
 // (CouplingGrid.cell_inside), floored at kMinInside of the cube. The stress is
-// summed only in the transition cells (those under a boundary face, the only
+// summed only in the cells of the boundary faces (top and open sides: the only
 // ones whose stress the coupler reads); it is 0 in the others.
 #include <cstdint>
 #include <vector>

@@ -58,12 +58,22 @@ inline ContactBlock& scratch_contacts() {
   return *b;
 }
 
+// What every particle of a list shares, decided once per call: nothing; one material (one coefficient
+// set, a loop invariant); or one material, one radius and one mass (a level of one particle size, most
+// levels: the radii, masses, effective radius and mass are loop invariants too, so the kernel loads no
+// radius or mass and divides twice less per contact; each invariant is computed as the per-contact
+// expression would be, so the forces are the same to the last bit).
+enum class Same { Nothing, Material, Size };
+
+struct OneSize {  // the radius and mass of a list of one size
+  double r = 0.0, m = 0.0;
+};
+
 // The contact law over contacts [0, n) of a block: one flat loop, no branches.
-// Uniform: one material pair, its coefficients a loop invariant. The arrays are
-// parameters because GCC honours __restrict only there, and without it the
+// The arrays are parameters because GCC honours __restrict only there, and without it the
 // loop is not vectorized.
-template <class Model, bool Uniform>
-void contact_law_loop(int32_t n, const PairCoeffs* coeffs, const int32_t* __restrict cix, double dt,
+template <class Model, Same S>
+void contact_law_loop(int32_t n, const PairCoeffs* coeffs, OneSize one, const int32_t* __restrict cix, double dt,
                       const double* __restrict dx, const double* __restrict dy, const double* __restrict dz,
                       const double* __restrict ri, const double* __restrict rj, const double* __restrict mi,
                       const double* __restrict mj, const double* __restrict dvx, const double* __restrict dvy,
@@ -74,20 +84,27 @@ void contact_law_loop(int32_t n, const PairCoeffs* coeffs, const int32_t* __rest
                       double* __restrict tx, double* __restrict ty, double* __restrict tz, double* __restrict mx,
                       double* __restrict my, double* __restrict mz, double* __restrict delta) {
   const PairCoeffs c0 = coeffs[0];
+  const double radsum0 = one.r + one.r, m_eff0 = one.m * one.m / (one.m + one.m), r_eff0 = one.r * one.r / radsum0;
   for (int32_t c = 0; c < n; ++c) {
     const double r = std::sqrt(dx[c] * dx[c] + dy[c] * dy[c] + dz[c] * dz[c]);
     const double rinv = 1.0 / r;
     ContactInput in;
     in.n = {dx[c] * rinv, dy[c] * rinv, dz[c] * rinv};
-    in.delta = ri[c] + rj[c] - r;
-    in.m_eff = mi[c] * mj[c] / (mi[c] + mj[c]);
-    in.r_eff = ri[c] * rj[c] / (ri[c] + rj[c]);
+    if constexpr (S == Same::Size) {
+      in.delta = radsum0 - r;
+      in.m_eff = m_eff0;
+      in.r_eff = r_eff0;
+    } else {
+      in.delta = ri[c] + rj[c] - r;
+      in.m_eff = mi[c] * mj[c] / (mi[c] + mj[c]);
+      in.r_eff = ri[c] * rj[c] / (ri[c] + rj[c]);
+    }
     in.v_rel = Vec3{dvx[c], dvy[c], dvz[c]} - cross(Vec3{wsx[c], wsy[c], wsz[c]}, in.n);
     if constexpr (Model::has_rolling) in.w_rel = {wrx[c], wry[c], wrz[c]};
     Vec3 h{hx[c], hy[c], hz[c]};
     Vec3 force, ft, roll;
     double fn;
-    if constexpr (Uniform) Model::eval_into(c0, dt, in, h, force, ft, roll, fn);
+    if constexpr (S != Same::Nothing) Model::eval_into(c0, dt, in, h, force, ft, roll, fn);
     else Model::eval_into(coeffs[cix[c]], dt, in, h, force, ft, roll, fn);
     if constexpr (Model::has_history) {
       hx[c] = h.x;
@@ -109,9 +126,9 @@ void contact_law_loop(int32_t n, const PairCoeffs* coeffs, const int32_t* __rest
   }
 }
 
-template <class Model, bool Uniform>
-void block_contact_forces(ContactBlock& b, int32_t n, const PairCoeffs* coeffs, double dt) {
-  contact_law_loop<Model, Uniform>(n, coeffs, b.cix, dt, b.d.x, b.d.y, b.d.z, b.ri, b.rj, b.mi, b.mj, b.dv.x, b.dv.y,
+template <class Model, Same S>
+void block_contact_forces(ContactBlock& b, int32_t n, const PairCoeffs* coeffs, OneSize one, double dt) {
+  contact_law_loop<Model, S>(n, coeffs, one, b.cix, dt, b.d.x, b.d.y, b.d.z, b.ri, b.rj, b.mi, b.mj, b.dv.x, b.dv.y,
                                    b.dv.z, b.ws.x, b.ws.y, b.ws.z, b.wr.x, b.wr.y, b.wr.z, b.h.x, b.h.y, b.h.z, b.f.x,
                                    b.f.y, b.f.z, b.t.x, b.t.y, b.t.z, b.m.x, b.m.y, b.m.z, b.delta);
 }
@@ -130,7 +147,8 @@ struct PairArrays {
   const int32_t* neigh;
   Vec3f* hist;           // null without history
   int nmat;
-  bool uniform;   // one coefficient set for every pair (cix is not written)
+  Same same;      // Material: cix is not written; Size: neither are ri, rj, mi, mj
+  OneSize one;    // with Same::Size
   bool prefetch;  // start the partner's loads early (large levels)
   int32_t last;   // the last listed pair
 };
@@ -153,7 +171,7 @@ inline constexpr int32_t kAheadPairs = 128;
 // Branch-free: whether a listed pair touches is unpredictable, so every pair is written to the next
 // slot and the slot only advances if it touches. A listed pair that does not touch costs one test, and
 // as few stores as possible (j and r_j, cheap to load again for the touching ones, are not kept).
-template <bool Prefetch>
+template <bool Prefetch, Same S>
 MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, int32_t k1, ContactBlock& b) {
   const Vec3* __restrict x = a.x;
   const double* __restrict rad = a.rad;
@@ -161,7 +179,7 @@ MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, in
   int32_t nc = 0;
   for (int32_t k = k0; k < k1; ++i) {
     const Vec3 xi = x[i];
-    const double ri = rad[i];
+    const double ri = S == Same::Size ? a.one.r : rad[i];
     for (const int32_t end = std::min(a.first[i + 1], k1); k < end; ++k) {
       const auto j = static_cast<size_t>(neigh[k]);
       // The gather and the scatter read and write the partner's other arrays in a moment:
@@ -169,14 +187,14 @@ MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, in
       if constexpr (Prefetch) {
         const auto jf = static_cast<size_t>(neigh[std::min(k + kAheadPairs, a.last)]);
         __builtin_prefetch(&x[jf]);
-        __builtin_prefetch(&rad[jf]);
+        if constexpr (S != Same::Size) __builtin_prefetch(&rad[jf]);
         __builtin_prefetch(&a.v[j]);
         __builtin_prefetch(&a.w[j]);
-        __builtin_prefetch(&a.mass[j]);
+        if constexpr (S != Same::Size) __builtin_prefetch(&a.mass[j]);
         __builtin_prefetch(&a.f[j], 1);
         __builtin_prefetch(&a.t[j], 1);
       }
-      const double rj = rad[j];
+      const double rj = S == Same::Size ? a.one.r : rad[j];
       const double radsum = ri + rj;
       const Vec3 d = xi - x[j];
       const bool touch = norm2(d) < radsum * radsum;
@@ -196,7 +214,7 @@ MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, in
 }
 
 // 1b. What the contact law needs, for the nc touching pairs found.
-template <class Model, bool Uniform>
+template <class Model, Same S>
 MLCG_INLINE void gather_touching(const PairArrays& a, int32_t nc, ContactBlock& b) {
   const Vec3* __restrict v = a.v;
   const Vec3* __restrict w = a.w;
@@ -206,13 +224,15 @@ MLCG_INLINE void gather_touching(const PairArrays& a, int32_t nc, ContactBlock& 
     const auto c = static_cast<size_t>(q);
     const auto i = static_cast<size_t>(b.i[c]);
     const auto j = static_cast<size_t>(a.neigh[b.k[c]]);
-    const double ri = rad[i], rj = rad[j];
+    const double ri = S == Same::Size ? a.one.r : rad[i], rj = S == Same::Size ? a.one.r : rad[j];
     b.j[c] = static_cast<int32_t>(j);
-    b.rj[c] = rj;
-    if constexpr (!Uniform) b.cix[c] = a.mat[i] * a.nmat + a.mat[j];  // one material: the law never reads it
-    b.ri[c] = ri;
-    b.mi[c] = mass[i];
-    b.mj[c] = mass[j];
+    if constexpr (S == Same::Nothing) b.cix[c] = a.mat[i] * a.nmat + a.mat[j];  // one material: the law never reads it
+    if constexpr (S != Same::Size) {
+      b.rj[c] = rj;
+      b.ri[c] = ri;
+      b.mi[c] = mass[i];
+      b.mj[c] = mass[j];
+    }
     const Vec3 dv = v[i] - v[j];
     const Vec3 ws = ri * w[i] + rj * w[j];
     b.dv.x[c] = dv.x;
@@ -253,7 +273,7 @@ MLCG_INLINE void reset_history(const PairArrays& a, int32_t k0, int32_t k1, int3
 
 // 3. Forces, torques and history back to the particles and the list; the largest overlap and, with
 // Stress, the stress contributions (branch r_ij/2 per Eq. 8) on the way.
-template <class Model, bool Stress>
+template <class Model, bool Stress, Same S>
 MLCG_INLINE void scatter_block(const PairArrays& a, int32_t nc, const ContactBlock& b, double* stress6,
                                double& worst, int32_t& worst_i) {
   Vec3* __restrict f = a.f;
@@ -264,17 +284,18 @@ MLCG_INLINE void scatter_block(const PairArrays& a, int32_t nc, const ContactBlo
     const auto j = static_cast<size_t>(b.j[c]);
     const Vec3 force{b.f.x[c], b.f.y[c], b.f.z[c]};
     const Vec3 tor{b.t.x[c], b.t.y[c], b.t.z[c]};
+    const double ri = S == Same::Size ? a.one.r : b.ri[c], rj = S == Same::Size ? a.one.r : b.rj[c];
     f[i] += force;
     f[j] -= force;
-    t[i] -= b.ri[c] * tor;
-    t[j] -= b.rj[c] * tor;
+    t[i] -= ri * tor;
+    t[j] -= rj * tor;
     if constexpr (Model::has_rolling) {
       const Vec3 roll{b.m.x[c], b.m.y[c], b.m.z[c]};
       t[i] += roll;
       t[j] -= roll;
     }
     if constexpr (Model::has_history) a.hist[b.k[c]] = Vec3f({b.h.x[c], b.h.y[c], b.h.z[c]});
-    const double rmin = std::min(b.ri[c], b.rj[c]);
+    const double rmin = std::min(ri, rj);
     if (b.delta[c] > worst * rmin) {  // divide only for a new largest overlap
       worst = b.delta[c] / rmin;
       worst_i = static_cast<int32_t>(i);
@@ -290,7 +311,7 @@ MLCG_INLINE void scatter_block(const PairArrays& a, int32_t nc, const ContactBlo
 // The list in blocks of kBlockPairs listed pairs (a particle's pairs may span two blocks): find, gather,
 // law, scatter. Prefetch and Uniform are chosen once per call, so the block loops test neither.
 // Returns the number of contacts.
-template <class Model, bool Stress, bool Prefetch, bool Uniform>
+template <class Model, bool Stress, bool Prefetch, Same S>
 int64_t run_blocks(const PairArrays& a, int32_t pairs, const PairCoeffs* coeffs, double dt, double* stress6,
                    double& worst, int32_t& worst_i) {
   ContactBlock& b = scratch_contacts();
@@ -298,16 +319,26 @@ int64_t run_blocks(const PairArrays& a, int32_t pairs, const PairCoeffs* coeffs,
   size_t i = 0;
   for (int32_t k0 = 0; k0 < pairs; k0 += kBlockPairs) {
     const int32_t k1 = std::min(pairs, k0 + kBlockPairs), k2 = std::min(pairs, k1 + kBlockPairs);
-    const int32_t nc = find_touching<Prefetch>(a, i, k0, k1, b);
-    gather_touching<Model, Uniform>(a, nc, b);
+    const int32_t nc = find_touching<Prefetch, S>(a, i, k0, k1, b);
+    gather_touching<Model, S>(a, nc, b);
     reset_history<Model, Prefetch>(a, k0, k1, k2);
-    block_contact_forces<Model, Uniform>(b, nc, coeffs, dt);  // 2. the contact law, vectorized
-    scatter_block<Model, Stress>(a, nc, b, stress6, worst, worst_i);
+    block_contact_forces<Model, S>(b, nc, coeffs, a.one, dt);  // 2. the contact law, vectorized
+    scatter_block<Model, Stress, S>(a, nc, b, stress6, worst, worst_i);
     contacts += nc;
   }
   return contacts;
 }
 
+}  // namespace pair_detail
+
+// stress6: 6 values per particle (only read when Stress).
+namespace pair_detail {
+template <class Model, bool Stress, bool Prefetch>
+auto run_for(Same s) {
+  return s == Same::Size       ? &run_blocks<Model, Stress, Prefetch, Same::Size>
+         : s == Same::Material ? &run_blocks<Model, Stress, Prefetch, Same::Material>
+                               : &run_blocks<Model, Stress, Prefetch, Same::Nothing>;
+}
 }  // namespace pair_detail
 
 // stress6: 6 values per particle (only read when Stress).
@@ -319,16 +350,17 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
   // One material among the particles (walls may have others): its coefficients are a loop invariant.
   const int32_t single = nl.single_material();
   const PairCoeffs* coeffs = mt.pairs().data() + (single >= 0 ? single * nmat + single : 0);
-  const PairArrays a{p.x.data(),     p.v.data(),      p.omega.data(), p.radius.data(),
-                     p.mass.data(),  p.material.data(), p.f.data(),   p.torque.data(),
-                     nl.first.data(), nl.neigh.data(), Model::has_history ? nl.hist.data() : nullptr,
-                     nmat,           nmat == 1 || single >= 0,        p.size() > kPrefetchAbove,
-                     std::max(0, nl.first[n] - 1)};
+  const NeighborList::OneSize size = nl.single_size();
+  const Same same = !(nmat == 1 || single >= 0) ? Same::Nothing : size.radius > 0.0 ? Same::Size : Same::Material;
+  const PairArrays a{p.x.data(),      p.v.data(),       p.omega.data(), p.radius.data(),
+                     p.mass.data(),   p.material.data(), p.f.data(),    p.torque.data(),
+                     nl.first.data(), nl.neigh.data(),  Model::has_history ? nl.hist.data() : nullptr,
+                     nmat,            same,             OneSize{size.radius, size.mass},
+                     p.size() > kPrefetchAbove,         std::max(0, nl.first[n] - 1)};
   double worst = st.max_overlap_ratio;
   int32_t worst_i = st.worst_particle;
-  using pair_detail::run_blocks;
-  const auto run = a.prefetch ? (a.uniform ? &run_blocks<Model, Stress, true, true> : &run_blocks<Model, Stress, true, false>)
-                              : (a.uniform ? &run_blocks<Model, Stress, false, true> : &run_blocks<Model, Stress, false, false>);
+  using pair_detail::run_for;
+  const auto run = a.prefetch ? run_for<Model, Stress, true>(same) : run_for<Model, Stress, false>(same);
   const int64_t contacts = run(a, nl.first[n], coeffs, dt, stress6, worst, worst_i);
   st.max_overlap_ratio = worst;
   st.worst_particle = worst_i;

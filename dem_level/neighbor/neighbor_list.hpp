@@ -102,6 +102,12 @@ class NeighborList {
   // The material every particle of the last build has (ghosts included), or -1 when they differ:
   // the pair kernel then holds one coefficient set for the whole list.
   int32_t single_material() const { return single_material_; }
+  // The radius and mass every particle of the last build or append has (ghosts included), else
+  // radius = -1: a list of one size, whose kernel holds them as loop invariants.
+  struct OneSize {
+    double radius = -1.0, mass = -1.0;
+  };
+  OneSize single_size() const { return single_size_; }
 
   size_t extra_bytes() const { return x_build_.capacity() * sizeof(Vec3); }
   size_t pairs() const { return neigh.size(); }
@@ -114,6 +120,8 @@ class NeighborList {
   CellBins bins_;
   uint64_t builds_ = 0;
   int32_t single_material_ = -1;
+  OneSize single_size_;
+  void note_size(const Particles& p, size_t from, size_t to);  // marks the list mixed if one differs
 };
 
 }  // namespace mlcg
