@@ -413,3 +413,21 @@ TEST(Driving, AnIntegrationChosenByTimingOnThisHostGivesTheStepByStepStateBitFor
   EXPECT_EQ(kick == "fused", integration["fused_seconds"].get<double>() < integration["split_seconds"].get<double>());
   fs::remove_all(dir);
 }
+
+// The summary says which pair kernel ran: the lattice of one size the one holding radius and mass as loop
+// invariants on every step, the same lattice with one particle a tenth larger the general one.
+TEST(Driving, TheSummaryNamesThePairKernelOfOneSizeOrOfMixedSizes) {
+  for (const bool mixed : {false, true}) {
+    auto cs = thrown_lattice();
+    if (mixed) cs.particles[100].radius *= 1.1;
+    const fs::path dir = fresh_temp_path("pair_kernel");
+    Level level(cs, driving_options(cs, dir, 401));
+    ASSERT_EQ(level.run(), RunStatus::StepLimit);
+    ASSERT_GT(level.contact_stats().pair_contacts, 20);
+    const auto kernel = read_json(dir / "summary.json")["levels"][0]["performance"]["pair_kernel"];
+    EXPECT_EQ(kernel["one_size"].get<double>(), mixed ? 0.0 : 1.0) << kernel.dump();
+    EXPECT_EQ(kernel["mixed"].get<double>(), 0.0) << kernel.dump();  // one material either way
+    EXPECT_EQ(kernel["one_material"].get<double>(), mixed ? 1.0 : 0.0) << kernel.dump();
+    fs::remove_all(dir);
+  }
+}

@@ -13,6 +13,7 @@ struct ContactStats {
   double max_overlap_ratio = 0.0;
   int32_t worst_particle = -1;
   int64_t pair_contacts = 0;
+  int pair_kernel = 0;  // the pair kernel's variant this step: 0 mixed, 1 one material, 2 one size (pair_kernel.hpp)
   int64_t wall_contacts = 0;
   double wall_power = 0.0;  // sum of F . v_wall over the contacts with moving walls [W]: the work they put in
 };

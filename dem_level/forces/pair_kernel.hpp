@@ -365,6 +365,7 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
   st.max_overlap_ratio = worst;
   st.worst_particle = worst_i;
   st.pair_contacts += contacts;
+  st.pair_kernel = static_cast<int>(same);
 }
 
 }  // namespace mlcg

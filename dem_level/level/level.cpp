@@ -342,6 +342,7 @@ void Level::step_forces() {
     clear_ghost_forces(state_.p);
     stepper_.forces(stepper_.fctx, stress);
   }
+  if (state_.nl.pairs() > 0) out_.times.pair_kernel_steps[stepper_.fctx.stats.pair_kernel] += 1.0;
   if (stress) {  // what the stress costs the kernels shows beside the other steps' force time
     out_.times.force_sample_steps += out_.times.force - f0;
     out_.times.sample_steps += 1.0;

@@ -309,18 +309,29 @@ void Level::write_series_files(std::vector<std::string> rows, const std::string&
     io::write_file_atomic(opt_.out_dir / "probes" / (pr.params().name + ".csv"), pr.csv());
 }
 
+namespace {
+// The pair kernel's variants as shares of the (rank-)steps that listed pairs: a level of one size runs
+// the kernel that holds radius and mass as loop invariants; a mixed one shows why it runs slower.
+nlohmann::json pair_kernel_json(const double* sums) {
+  const double total = sums[23] + sums[24] + sums[25];
+  const auto share = [&](double s) { return total > 0.0 ? s / total : 0.0; };
+  return {{"one_size", share(sums[25])}, {"one_material", share(sums[24])}, {"mixed", share(sums[23])}};
+}
+}  // namespace
+
 void Level::write_summary(const std::string& status, const std::string& reason) const {
   if (opt_.out_dir.empty()) return;
   // Collective part first: every rank contributes, rank 0 writes.
   const auto b = mass_balance();
   const PhaseTimes& pt = out_.times;
   const CouplingTimes& ct = pt.coupling;
-  double sums[23] = {pt.integrate, pt.neighbor, pt.force, pt.comm, pt.measure, pt.insert, pt.output,
+  double sums[26] = {pt.integrate, pt.neighbor, pt.force, pt.comm, pt.measure, pt.insert, pt.output,
                      static_cast<double>(state_.nl.pairs()), static_cast<double>(memory_bytes()),
                      static_cast<double>(state_.p.n_local()), ct.total(), pt.coupling_wait, ct.insert,
                      ct.crossings, ct.controller, ct.samples, ct.statistics, ct.send, pt.force_sample_steps,
-                     pt.sample_steps, static_cast<double>(steps_this_process_), pt.insert_rebuilds, pt.insert_rebuild_seconds};
-  comm_.sum_in_place(sums, 23);
+                     pt.sample_steps, static_cast<double>(steps_this_process_), pt.insert_rebuilds, pt.insert_rebuild_seconds,
+                     pt.pair_kernel_steps[0], pt.pair_kernel_steps[1], pt.pair_kernel_steps[2]};
+  comm_.sum_in_place(sums, 26);
   const CouplingReport cr = coupling_report();
   if (comm_.rank() == 0) rank0_output([&] { write_summary_file(status, reason, b, sums, cr); });
   sync_output();
@@ -408,7 +419,8 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
        {{"kick", kick_.started() ? kick_.name() : "split"},
         {"chosen_by", kick_.started() ? kick_.chosen_by() : "the scene (velocities read between steps)"},
         {"split_seconds", kick_.split_seconds()},
-        {"fused_seconds", kick_.fused_seconds()}}}};
+        {"fused_seconds", kick_.fused_seconds()}}},
+      {"pair_kernel", pair_kernel_json(sums)}};
   if (coupled_)
     lv["coupling"] = {{"intervals", cr.intervals}, {"inserted_from_coupler", cr.inserted},
                       {"largest_insert_overlap_of_diameter", cr.worst_insert_overlap},

@@ -56,6 +56,7 @@ struct PhaseTimes {
   double sample_steps = 0.0;        // how many steps those were
   double insert_rebuilds = 0.0;         // neighbour rebuilds only the coupler's insertions asked for
   double insert_rebuild_seconds = 0.0;  // their time (in neighbor)
+  double pair_kernel_steps[3] = {0.0, 0.0, 0.0};  // steps with pairs listed, per pair-kernel variant (ContactStats)
   double total() const {
     return integrate + neighbor + force + comm + measure + insert + output + coupling.total() + coupling_wait;
   }
