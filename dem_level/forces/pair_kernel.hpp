@@ -61,7 +61,7 @@ inline ContactBlock& scratch_contacts() {
 // What every particle of a list shares, decided once per call: nothing; one material (one coefficient
 // set, a loop invariant); or one material, one radius and one mass (a level of one particle size, most
 // levels: the radii, masses, effective radius and mass are loop invariants too, so the kernel loads no
-// radius or mass and divides twice less per contact; each invariant is computed as the per-contact
+// radius or mass and makes two divisions fewer per contact; each invariant is computed as the per-contact
 // expression would be, so the forces are the same to the last bit).
 enum class Same { Nothing, Material, Size };
 
