@@ -50,11 +50,10 @@ Result run_variant(Particles p, NeighborList nl, const MaterialTable& mt) {
   Result r;
   r.stress6.assign(6 * p.size(), 0.0);
   const size_t n = p.n_local();
-  const NeighborList::OneSize size = nl.single_size();
   const PairArrays a{p.x.data(),      p.v.data(),       p.omega.data(), p.radius.data(),
                                   p.mass.data(),   p.material.data(), p.f.data(),    p.torque.data(),
                                   nl.first.data(), nl.neigh.data(),  Model::has_history ? nl.hist.data() : nullptr,
-                                  mt.size(),       S,                OneSize{size.radius, size.mass},
+                                  mt.size(),       S,                nl.single_size(),
                                   Prefetch,        std::max(0, nl.first[n] - 1)};
   r.contacts = pair_detail::run_blocks<Model, Stress, Prefetch, S>(a, nl.first[n], mt.pairs().data(), 1e-6,
                                                                    r.stress6.data(), r.worst, r.worst_i);

@@ -22,7 +22,8 @@ struct Sphere {
   double r;
 };
 
-inline double sphere_volume(double r) { return 4.0 / 3.0 * std::numbers::pi * r * r * r; }
+inline constexpr double kSphereVolumeFactor = 4.0 / 3.0 * std::numbers::pi;  // V = kSphereVolumeFactor r^3
+inline double sphere_volume(double r) { return kSphereVolumeFactor * r * r * r; }
 inline double sphere_mass(double density, double r) { return density * sphere_volume(r); }
 
 class SphereHash {

@@ -64,10 +64,7 @@ inline ContactBlock& scratch_contacts() {
 // radius or mass and makes two divisions fewer per contact; each invariant is computed as the per-contact
 // expression would be, so the forces are the same to the last bit).
 enum class Same { Nothing, Material, Size };
-
-struct OneSize {  // the radius and mass of a list of one size
-  double r = 0.0, m = 0.0;
-};
+using OneSize = NeighborList::OneSize;  // the radius and mass of a list of one size
 
 // The contact law over contacts [0, n) of a block: one flat loop, no branches.
 // The arrays are parameters because GCC honours __restrict only there, and without it the
@@ -84,7 +81,8 @@ void contact_law_loop(int32_t n, const PairCoeffs* coeffs, OneSize one, const in
                       double* __restrict tx, double* __restrict ty, double* __restrict tz, double* __restrict mx,
                       double* __restrict my, double* __restrict mz, double* __restrict delta) {
   const PairCoeffs c0 = coeffs[0];
-  const double radsum0 = one.r + one.r, m_eff0 = one.m * one.m / (one.m + one.m), r_eff0 = one.r * one.r / radsum0;
+  const double radsum0 = one.radius + one.radius, m_eff0 = one.mass * one.mass / (one.mass + one.mass),
+               r_eff0 = one.radius * one.radius / radsum0;
   for (int32_t c = 0; c < n; ++c) {
     const double r = std::sqrt(dx[c] * dx[c] + dy[c] * dy[c] + dz[c] * dz[c]);
     const double rinv = 1.0 / r;
@@ -179,7 +177,7 @@ MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, in
   int32_t nc = 0;
   for (int32_t k = k0; k < k1; ++i) {
     const Vec3 xi = x[i];
-    const double ri = S == Same::Size ? a.one.r : rad[i];
+    const double ri = S == Same::Size ? a.one.radius : rad[i];
     for (const int32_t end = std::min(a.first[i + 1], k1); k < end; ++k) {
       const auto j = static_cast<size_t>(neigh[k]);
       // The gather and the scatter read and write the partner's other arrays in a moment:
@@ -194,7 +192,7 @@ MLCG_INLINE int32_t find_touching(const PairArrays& a, size_t& i, int32_t k0, in
         __builtin_prefetch(&a.f[j], 1);
         __builtin_prefetch(&a.t[j], 1);
       }
-      const double rj = S == Same::Size ? a.one.r : rad[j];
+      const double rj = S == Same::Size ? a.one.radius : rad[j];
       const double radsum = ri + rj;
       const Vec3 d = xi - x[j];
       const bool touch = norm2(d) < radsum * radsum;
@@ -224,7 +222,7 @@ MLCG_INLINE void gather_touching(const PairArrays& a, int32_t nc, ContactBlock& 
     const auto c = static_cast<size_t>(q);
     const auto i = static_cast<size_t>(b.i[c]);
     const auto j = static_cast<size_t>(a.neigh[b.k[c]]);
-    const double ri = S == Same::Size ? a.one.r : rad[i], rj = S == Same::Size ? a.one.r : rad[j];
+    const double ri = S == Same::Size ? a.one.radius : rad[i], rj = S == Same::Size ? a.one.radius : rad[j];
     b.j[c] = static_cast<int32_t>(j);
     if constexpr (S == Same::Nothing) b.cix[c] = a.mat[i] * a.nmat + a.mat[j];  // one material: the law never reads it
     if constexpr (S != Same::Size) {
@@ -284,7 +282,7 @@ MLCG_INLINE void scatter_block(const PairArrays& a, int32_t nc, const ContactBlo
     const auto j = static_cast<size_t>(b.j[c]);
     const Vec3 force{b.f.x[c], b.f.y[c], b.f.z[c]};
     const Vec3 tor{b.t.x[c], b.t.y[c], b.t.z[c]};
-    const double ri = S == Same::Size ? a.one.r : b.ri[c], rj = S == Same::Size ? a.one.r : b.rj[c];
+    const double ri = S == Same::Size ? a.one.radius : b.ri[c], rj = S == Same::Size ? a.one.radius : b.rj[c];
     f[i] += force;
     f[j] -= force;
     t[i] -= ri * tor;
@@ -350,12 +348,12 @@ void pair_forces(Particles& p, NeighborList& nl, const MaterialTable& mt, double
   // One material among the particles (walls may have others): its coefficients are a loop invariant.
   const int32_t single = nl.single_material();
   const PairCoeffs* coeffs = mt.pairs().data() + (single >= 0 ? single * nmat + single : 0);
-  const NeighborList::OneSize size = nl.single_size();
+  const OneSize size = nl.single_size();
   const Same same = !(nmat == 1 || single >= 0) ? Same::Nothing : size.radius > 0.0 ? Same::Size : Same::Material;
   const PairArrays a{p.x.data(),      p.v.data(),       p.omega.data(), p.radius.data(),
                      p.mass.data(),   p.material.data(), p.f.data(),    p.torque.data(),
                      nl.first.data(), nl.neigh.data(),  Model::has_history ? nl.hist.data() : nullptr,
-                     nmat,            same,             OneSize{size.radius, size.mass},
+                     nmat,            same,             size,
                      p.size() > kPrefetchAbove,         std::max(0, nl.first[n] - 1)};
   double worst = st.max_overlap_ratio;
   int32_t worst_i = st.worst_particle;

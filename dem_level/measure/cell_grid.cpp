@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <stdexcept>
 #include <string>
 
+#include "core/spheres.hpp"
 #include "forces/contact_stats.hpp"
 
 namespace mlcg {
@@ -21,8 +21,6 @@ inline double madd(double a, double b, double c) {
   return a * b + c;
 #endif
 }
-
-constexpr double kSphere = 4.0 / 3.0 * std::numbers::pi;  // sphere_volume's factor
 
 }  // namespace
 
@@ -79,7 +77,7 @@ void CellGrid::local_sample(const Particles& p, const std::vector<double>& stres
     const Vec3& v = p.v[i];
     const double mvx = m * v.x, mvy = m * v.y, mvz = m * v.z;
     acc[0] += m;
-    acc[1] = madd(kSphere * r * r, r, acc[1]);
+    acc[1] = madd(kSphereVolumeFactor * r * r, r, acc[1]);
     acc[2] += 1.0;
     acc[3] = madd(m, v.x, acc[3]);
     acc[4] = madd(m, v.y, acc[4]);

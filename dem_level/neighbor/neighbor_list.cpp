@@ -58,22 +58,21 @@ int CellBins::cell_of(const Vec3& p) const {
   return index(ix, iy, iz);
 }
 
-void NeighborList::note_size(const Particles& p, size_t from, size_t to) {
-  for (size_t i = from; i < to && single_size_.radius > 0.0; ++i)
+void NeighborList::note_sameness(const Particles& p, size_t from, size_t to) {
+  for (size_t i = from; i < to; ++i) {
+    if (p.material[i] != single_material_) single_material_ = -1;
     if (p.radius[i] != single_size_.radius || p.mass[i] != single_size_.mass) single_size_ = OneSize{};
+  }
 }
 
 void NeighborList::build(const Particles& p, bool with_history) {
   const size_t n_all = p.size();
   const size_t n_local = p.n_local();
   double rmax = 0.0;
+  for (size_t i = 0; i < n_all; ++i) rmax = std::max(rmax, p.radius[i]);
   single_material_ = n_all > 0 ? p.material[0] : -1;
-  for (size_t i = 0; i < n_all; ++i) {
-    rmax = std::max(rmax, p.radius[i]);
-    if (p.material[i] != single_material_) single_material_ = -1;
-  }
   single_size_ = n_all > 0 ? OneSize{p.radius[0], p.mass[0]} : OneSize{};
-  note_size(p, 0, n_all);
+  note_sameness(p, 0, n_all);
   bins_.build(p.x, n_all, 2.0 * rmax + skin_);
 
   first.assign(n_local + 1, 0);
@@ -135,9 +134,7 @@ void NeighborList::append(const Particles& p, size_t first_new, bool with_histor
   if (p.size() != n || first.size() != first_new + 1 || x_build_.size() != first_new || first_new > n)
     throw std::logic_error("NeighborList::append: the list does not end where the new particles start");
   if (first_new == n) return;
-  for (size_t k = first_new; k < n; ++k)
-    if (p.material[k] != single_material_) single_material_ = -1;
-  note_size(p, first_new, n);
+  note_sameness(p, first_new, n);
   std::vector<std::vector<int32_t>> rows(n - first_new);
   for_new_pairs(p, first_new, 1.5 * skin_,
                 [&](size_t k, size_t j, double) { rows[k - first_new].push_back(static_cast<int32_t>(j)); });

@@ -121,7 +121,8 @@ class NeighborList {
   uint64_t builds_ = 0;
   int32_t single_material_ = -1;
   OneSize single_size_;
-  void note_size(const Particles& p, size_t from, size_t to);  // marks the list mixed if one differs
+  // Particles [from, to) against the list's one material and one size: one that differs ends either.
+  void note_sameness(const Particles& p, size_t from, size_t to);
 };
 
 }  // namespace mlcg
