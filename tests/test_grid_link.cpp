@@ -249,6 +249,53 @@ TEST(ControllerForces, SpeedLimitRemovesTheAcceleratingComponent) {
   EXPECT_NEAR(p.f[3].z, full, 1e-12 * std::fabs(full));
 }
 
+// The candidates a rebuild lists for the open sides are only those that may reach a side face's fade zone
+// before the next rebuild (a particle moves less than the band in each axis). Particles moved up to the band
+// after the refresh, many of them into another cell: the listed pass presses every particle exactly as a pass
+// over all of them (the same weight sums, the same forces to the bit).
+TEST(ControllerForces, TheSideCandidatesOfARefreshPressAsEveryParticleAfterMovesWithinTheBand) {
+  auto grid = make_grid({0, 0, 0}, 0.01, 3, 3, 3);
+  grid.set_fade_depth(0.004);
+  // Side faces on some cells of the box's sides only (the rest closed): +x of cell (2,0,0), -y of (2,0,1),
+  // -x of (0,1,1), +y of (1,2,2), each code 4 c + d.
+  for (uint32_t code : {4 * 2 + 1, 4 * 11 + 2, 4 * 12 + 0, 4 * 25 + 3}) grid.add_side_faces(code);
+  const bus::CouplingGeometry geo(grid);
+  ASSERT_EQ(geo.faces(), 13u);
+  std::vector<double> traction(geo.faces());
+  for (size_t f = 0; f < traction.size(); ++f) traction[f] = 50.0 + 10.0 * static_cast<double>(f);
+  Particles p;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 6000; ++i) add(p, {0.03 * u(rng), 0.03 * u(rng), 0.03 * u(rng)}, 3e-4 + 3e-4 * u(rng));
+  const double band = 1e-3;
+  ControllerForces listed(geo), every(geo);
+  listed.refresh(p, band);
+  int changed_cell = 0;
+  for (size_t i = 0; i < p.n_local(); ++i) {
+    const int before = geo.locate(p.x[i]);
+    p.x[i] += Vec3{0.99 * band * (2.0 * u(rng) - 1.0), 0.99 * band * (2.0 * u(rng) - 1.0),
+                   0.99 * band * (2.0 * u(rng) - 1.0)};
+    changed_cell += geo.locate(p.x[i]) != before;
+  }
+  EXPECT_GT(changed_cell, 500) << "the moves must carry many particles into other cells";
+  for (ControllerForces* cf : {&listed, &every}) {
+    cf->set_traction(traction, {});
+    cf->normalise(p, Comm{});
+  }
+  EXPECT_EQ(listed.weight_sums(), every.weight_sums());
+  p.clear_forces();
+  every.apply(p);
+  const std::vector<Vec3> f_every(p.f.begin(), p.f.begin() + static_cast<long>(p.n_local()));
+  p.clear_forces();
+  listed.apply(p);
+  int pressed_sideways = 0;
+  for (size_t i = 0; i < p.n_local(); ++i) {
+    EXPECT_EQ(p.f[i], f_every[i]) << "particle " << i << " at " << p.x[i].x << " " << p.x[i].y << " " << p.x[i].z;
+    pressed_sideways += p.f[i].x != 0.0 || p.f[i].y != 0.0;
+  }
+  EXPECT_GT(pressed_sideways, 100);
+}
+
 TEST(ControllerForces, CoarseCellAccelerationIsMassTimesA) {
   const bus::CouplingGeometry geo(make_grid({0, 0, 0}, 0.01, 2, 1, 1));
   Particles p;

@@ -105,10 +105,22 @@ double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, in
   return face < 0 ? 0.0 : sphere_volume(r) * (1.0 - s / depth_);
 }
 
-double ControllerForces::side_distance(const Vec3& x) const {
-  double d = 1e300;
-  for (const bus::Side sd : geo_.open_sides()) d = std::min(d, geo_.depth_inside(sd, x));
-  return d;
+bool ControllerForces::may_reach_side_face(const Vec3& x, double band) const {
+  // Until the next refresh x stays within the cube of half-edge band around it; with 2 band below a cell's
+  // edge the cells that cube touches are those of its corners. A side whose cells there have no boundary
+  // face (closed by the walls, outside the vessel) presses nothing.
+  const bool corners = 2.0 * band < geo_.cell_size();
+  for (const bus::Side sd : geo_.open_sides()) {
+    const double s = geo_.depth_inside(sd, x);
+    if (!(s > -band && s < depth_ + band)) continue;
+    if (!corners) return true;
+    for (int k = 0; k < 8; ++k) {
+      const Vec3 y{x.x + (k & 1 ? band : -band), x.y + (k & 2 ? band : -band), x.z + (k & 4 ? band : -band)};
+      const int c = geo_.locate(y);
+      if (c >= 0 && geo_.side_face(static_cast<size_t>(c), sd) >= 0) return true;
+    }
+  }
+  return false;
 }
 
 void ControllerForces::refresh(const Particles& p, double band, size_t from) {
@@ -119,8 +131,7 @@ void ControllerForces::refresh(const Particles& p, double band, size_t from) {
   for (size_t i = from; i < p.n_local(); ++i) {
     const double s = top_ - p.x[i].z;
     if (s > -band && s < depth_ + band) near_top_.push_back(static_cast<uint32_t>(i));
-    if (!geo_.open_sides().empty() && std::fabs(side_distance(p.x[i]) - 0.5 * depth_) < 0.5 * depth_ + band)
-      near_side_.push_back(static_cast<uint32_t>(i));
+    if (!geo_.open_sides().empty() && may_reach_side_face(p.x[i], band)) near_side_.push_back(static_cast<uint32_t>(i));
   }
   near_valid_ = true;
 }

@@ -51,7 +51,8 @@ class ControllerForces {
  private:
   void apply_sides(Particles& p) const;
   Vec3 limited(const Vec3& F, const Vec3& v, size_t f) const;  // without the part beyond the speed limit
-  double side_distance(const Vec3& x) const;                   // to the nearest open side, inward
+  // Whether x, moving less than band, may come within the fade depth inside a side face.
+  bool may_reach_side_face(const Vec3& x, double band) const;
   bus::CouplingGeometry geo_;
   double top_ = 0.0, depth_ = 0.0;
   std::vector<double> area_;  // per face: its area inside the walls [m^2]

@@ -51,16 +51,26 @@ template <class F>
 void for_new_pairs(const Particles& p, size_t first_new, double reach, F&& f) {
   const size_t n = p.n_local();
   if (first_new >= n) return;
-  double r_new = 0.0, zlo = 1e300, zhi = -1e300;
+  double r_new = 0.0;
   for (size_t k = first_new; k < n; ++k) r_new = std::max(r_new, p.radius[k]);
   SphereHash fresh(2.0 * r_new + reach);
+  // The box around the new ones within reach: an older particle outside it by more than its radius has
+  // no partner among them (a slab in z alone let a whole layer of the level through, for one particle).
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
   for (size_t k = first_new; k < n; ++k) {
     fresh.add(p.x[k], p.radius[k]);
-    zlo = std::min(zlo, p.x[k].z - r_new - reach);
-    zhi = std::max(zhi, p.x[k].z + r_new + reach);
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p.x[k][a] - r_new - reach);
+      hi[a] = std::max(hi[a], p.x[k][a] + r_new + reach);
+    }
   }
   for (size_t j = 0; j < n; ++j) {
-    if (j < first_new && (p.x[j].z + p.radius[j] < zlo || p.x[j].z - p.radius[j] > zhi)) continue;
+    if (j < first_new) {
+      const Vec3& x = p.x[j];
+      const double r = p.radius[j];
+      if (x.z + r < lo.z || x.z - r > hi.z || x.x + r < lo.x || x.x - r > hi.x || x.y + r < lo.y || x.y - r > hi.y)
+        continue;
+    }
     fresh.find_near(p.x[j], p.radius[j] + reach, [&](size_t q, const Vec3& xk, double rk) {
       const double cut = rk + p.radius[j] + reach, d2 = norm2(xk - p.x[j]);
       if (first_new + q > j && d2 < cut * cut) f(first_new + q, j, d2);

@@ -97,9 +97,8 @@ Vec3 CouplingGeometry::cell_centre(size_t c) const {
 }
 
 int CouplingGeometry::locate(const Vec3& x) const {
-  const double inv = 1.0 / g_.cell_size();
-  const double fi = std::floor((x.x - g_.ox()) * inv), fj = std::floor((x.y - g_.oy()) * inv),
-               fk = std::floor((x.z - g_.oz()) * inv);
+  const double fi = std::floor((x.x - g_.ox()) * inv_h_), fj = std::floor((x.y - g_.oy()) * inv_h_),
+               fk = std::floor((x.z - g_.oz()) * inv_h_);
   if (!(fi >= 0 && fj >= 0 && fk >= 0 && fi < g_.nx() && fj < g_.ny() && fk < g_.nz())) return -1;
   const auto i = static_cast<uint32_t>(fi), j = static_cast<uint32_t>(fj), k = static_cast<uint32_t>(fk);
   return lookup_[i + g_.nx() * (j + g_.ny() * k)];

@@ -105,7 +105,7 @@ class CouplingGeometry {
   size_t bottom_faces_ = 0;
   std::vector<int> lookup_;  // flat index -> active cell or -1
   Vec3 hi_;                  // box_hi()
-  double inv_h_ = 0.0;       // 1 / cell size, as locate() computes it
+  double inv_h_ = 0.0;       // 1 / cell size (locate(), face_column())
   std::vector<int> column_;  // per column i + nx j: its top face or -1
 };
 
