@@ -95,9 +95,18 @@ void Coupler::check(const bus::GridStats& g, const Region& r, bool coarse, size_
     bad("face_momentum", g.face_momentum_size(), 3 * nf);
     bad("face_moment", g.face_moment_size(), 3 * nf);
     bad("face_histogram", g.face_histogram_size(), nb * nf);
+    if (g.face_gross_mass_size() != 0 || g.face_speed_mass_size() != 0) {  // both or neither
+      bad("face_gross_mass", g.face_gross_mass_size(), nf);
+      bad("face_speed_mass", g.face_speed_mass_size(), nf);
+    }
   } else {
     if (g.occupants_size() % 4 != 0) bad("occupants", g.occupants_size(), g.occupants_size() / 4 * 4);
     if (g.face_returned_mass_size() != 0) bad("face_returned_mass", g.face_returned_mass_size(), nf);
+    for (int i = 0; i < g.occupant_faces_size(); ++i)
+      if (g.occupant_faces(i) >= nf || (i > 0 && g.occupant_faces(i) <= g.occupant_faces(i - 1)))
+        throw std::invalid_argument(fmt::format("coupler: level '{}' region {}: occupant_faces[{}] = {}; the faces "
+                                                "are ascending numbers below the grid's {}",
+                                                cfg_.levels[level].name, g.grid(), i, g.occupant_faces(i), nf));
   }
 }
 
@@ -118,6 +127,8 @@ void Coupler::check_values(const bus::GridStats& g, const Region& r, size_t leve
   finite("cell_velocity", g.cell_velocity());
   finite("cell_max_speed", g.cell_max_speed());
   finite("occupants", g.occupants());
+  finite("face_gross_mass", g.face_gross_mass());
+  finite("face_speed_mass", g.face_speed_mass());
   finite("face_returned_mass", g.face_returned_mass());
   if (!std::isfinite(g.mass_in_region()) || !std::isfinite(g.mass_leaving()))
     refuse(fmt::format("mass_in_region {} kg, mass_leaving {} kg; statistics are finite numbers", g.mass_in_region(),
@@ -139,7 +150,8 @@ void Coupler::check_values(const bus::GridStats& g, const Region& r, size_t leve
 void Coupler::plan_insertions(Region& r, const bus::GridStats& cs, const bus::GridStats& fs, uint64_t k,
                               bus::GridCommands& fine) const {
   r.planner.add_crossings(to_vector(cs.face_mass()), to_vector(cs.face_momentum()), to_vector(cs.face_moment()),
-                          {cs.face_histogram().begin(), cs.face_histogram().end()});
+                          {cs.face_histogram().begin(), cs.face_histogram().end()}, to_vector(cs.face_gross_mass()),
+                          to_vector(cs.face_speed_mass()));
   r.planner.add_returned(to_vector(fs.face_returned_mass()));
   r.log.returned_mass = 0.0;
   for (double m : fs.face_returned_mass()) r.log.returned_mass += m;
@@ -153,9 +165,10 @@ void Coupler::plan_insertions(Region& r, const bus::GridStats& cs, const bus::Gr
     occ.reserve(static_cast<size_t>(fs.occupants_size() / 4));
     for (int i = 0; i + 3 < fs.occupants_size(); i += 4)
       occ.push_back({{fs.occupants(i), fs.occupants(i + 1), fs.occupants(i + 2)}, fs.occupants(i + 3)});
-    ins = r.planner.plan(k + 1, occ);
+    ins = r.planner.plan(k + 1, occ, {fs.occupant_faces().begin(), fs.occupant_faces().end()});
   }
   fine.set_want_occupants(r.planner.wants_occupants(k + 1));
+  for (const uint32_t f : r.planner.occupant_faces(k + 1)) fine.add_occupant_faces(f);
   r.last = ins;
   r.log.inserted = ins.size();
   r.log.inserted_mass = 0.0;

@@ -212,6 +212,7 @@ RegionConfig region_config(const config::CaseSpec& cs, const config::CouplingReg
   rc.planner.insert_depth = rc.grid.insert_depth();
   rc.planner.radius_bins.assign(rc.grid.radius_bins().begin(), rc.grid.radius_bins().end());
   rc.planner.seed = cs.seed ^ (0x51ed2701ULL * (index + 1));
+  rc.planner.retry_full_every = static_cast<uint64_t>(cs.coupling->retry_full_every);
   rc.pi.kp = rs.kp;
   rc.pi.ki = rs.ki;
   rc.pi.limit = rs.traction_limit > 0.0 ? rs.traction_limit : sizes.density * g * height;

@@ -29,9 +29,12 @@ InsertionPlanner::InsertionPlanner(const bus::CouplingGeometry& geo, PlannerPara
 double InsertionPlanner::mass_of(double r) const { return sphere_mass(prm_.density, r); }
 
 void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std::vector<double>& momentum,
-                                     const std::vector<double>& moment, const std::vector<int64_t>& histogram) {
+                                     const std::vector<double>& moment, const std::vector<int64_t>& histogram,
+                                     const std::vector<double>& gross_mass, const std::vector<double>& speed_mass) {
   const size_t nf = faces_.size(), nb = prm_.radius_bins.size() - 1;
-  if (mass.size() != nf || momentum.size() != 3 * nf || moment.size() != 3 * nf || histogram.size() != nb * nf)
+  const bool speeds = !gross_mass.empty();
+  if (mass.size() != nf || momentum.size() != 3 * nf || moment.size() != 3 * nf || histogram.size() != nb * nf ||
+      (speeds && (gross_mass.size() != nf || speed_mass.size() != nf)))
     throw std::invalid_argument("insertion planner: face statistics do not match the grid's " +
                                 std::to_string(nf) + " faces and " + std::to_string(nb) + " radius bins");
   for (size_t f = 0; f < nf; ++f) {
@@ -43,6 +46,10 @@ void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std:
     if (mass[f] > 0.0) {
       // Favre averages of the net crossing; a net crossing is mostly one-way.
       s.velocity = Vec3{momentum[3 * f], momentum[3 * f + 1], momentum[3 * f + 2]} / mass[f];
+      // One-way crossings give a mean no faster than their mean speed (to rounding): only a mix is bounded.
+      const double speed = norm(s.velocity);
+      const double bound = speeds && gross_mass[f] > 0.0 ? speed_mass[f] / gross_mass[f] : -1.0;
+      if (bound >= 0.0 && speed > bound * (1.0 + 1e-9)) s.velocity *= bound / speed;
       const Vec3 a = Vec3{moment[3 * f], moment[3 * f + 1], moment[3 * f + 2]} / mass[f];
       if (anchored_on(f, a) && reachable(a)) {
         s.anchor = a;
@@ -116,15 +123,28 @@ double InsertionPlanner::draw_radius(const FaceState& f, Rng& rng) const {
   return (e[bin] + u * (e[bin + 1] - e[bin])) / prm_.ratio;
 }
 
+bool InsertionPlanner::likely_to_place(const FaceState& s) const {
+  return s.seen && s.remainder + std::max(0.0, s.last_crossed) >= mass_of(prm_.radius_bins.front() / prm_.ratio);
+}
+
 bool InsertionPlanner::wants_occupants(uint64_t interval) const {
-  const double m_min = mass_of(prm_.radius_bins.front() / prm_.ratio);
+  if (prm_.retry_full_every > 1) return !occupant_faces(interval).empty();
   bool any = false, fresh = false;
   for (const auto& s : faces_) {
-    if (!s.seen || s.remainder + std::max(0.0, s.last_crossed) < m_min) continue;
+    if (!likely_to_place(s)) continue;
     any = true;
     fresh = fresh || s.short_streak == 0;
   }
   return any && (fresh || interval % 4 == 0);
+}
+
+std::vector<uint32_t> InsertionPlanner::occupant_faces(uint64_t interval) const {
+  std::vector<uint32_t> out;
+  if (prm_.retry_full_every <= 1) return out;
+  const bool retry = (interval + 1) % prm_.retry_full_every == 0;
+  for (size_t f = 0; f < faces_.size(); ++f)
+    if (likely_to_place(faces_[f]) && (faces_[f].short_streak == 0 || retry)) out.push_back(static_cast<uint32_t>(f));
+  return out;
 }
 
 std::mt19937_64& InsertionPlanner::rng(uint64_t interval, size_t f) {
@@ -135,13 +155,16 @@ std::mt19937_64& InsertionPlanner::rng(uint64_t interval, size_t f) {
   return *g;
 }
 
-std::vector<char> InsertionPlanner::draw_pending(uint64_t interval) {
+std::vector<char> InsertionPlanner::draw_pending(uint64_t interval, const std::vector<uint32_t>& reported) {
   // Each face's next radius, drawn as its first placement would draw it: the faces whose remainder covers
-  // it are the ones that try to place this interval.
-  std::vector<char> tries(faces_.size(), 0);
+  // it, and whose slab's particles the fine level reported, are the ones that try to place this interval.
+  std::vector<char> tries(faces_.size(), 0), known(faces_.size(), reported.empty());
+  for (const uint32_t f : reported)
+    if (f < known.size()) known[f] = 1;
   rngs_.resize(faces_.size());
   for (auto& g : rngs_) g.reset();
   for (size_t f = 0; f < faces_.size(); ++f) {
+    if (!known[f]) continue;
     FaceState& s = faces_[f];
     if (!s.seen) continue;
     if (s.next_radius <= 0.0) s.next_radius = draw_radius(s, rng(interval, f));
@@ -169,9 +192,10 @@ void InsertionPlanner::fill_hash(const std::vector<Sphere>& occupants, const std
     if (bus::near_box(o.x, lo, hi, reach + o.r)) hash_.add(o);
 }
 
-std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<Sphere>& occupants) {
+std::vector<Insert> InsertionPlanner::plan(uint64_t interval, const std::vector<Sphere>& occupants,
+                                           const std::vector<uint32_t>& reported) {
   std::vector<Insert> out;
-  const std::vector<char> tries = draw_pending(interval);
+  const std::vector<char> tries = draw_pending(interval, reported);
   if (std::find(tries.begin(), tries.end(), 1) == tries.end()) return out;  // most intervals place nothing
   fill_hash(occupants, tries);
   for (size_t f = 0; f < faces_.size(); ++f) {

@@ -44,6 +44,9 @@ struct PlannerParams {
   std::vector<double> radius_bins; // coarse radius bin edges (size bins + 1; equal edges = one radius)
   int attempts = 300;              // SSI candidates per particle before the face gives up this interval
   int attempts_when_full = 30;     // the same for a face whose slab was full last time
+  // A face whose slab was full tries again at intervals that are multiples of this ([coupling]
+  // retry_full_every). Above 1 the fine level reports only the slabs of the faces that may try.
+  uint64_t retry_full_every = 1;
   uint64_t seed = 1;
 };
 
@@ -75,18 +78,28 @@ class InsertionPlanner {
   InsertionPlanner(const bus::CouplingGeometry& geo, PlannerParams prm, FitsGeometry fits);
 
   // Adds one interval of the coarse level's face statistics (GridStats fields
-  // face_mass, face_momentum, face_moment, face_histogram).
+  // face_mass, face_momentum, face_moment, face_histogram; face_gross_mass and face_speed_mass,
+  // empty = not sent). A face's velocity is the net crossing's mean, its speed no more than the mean
+  // speed of every crossing that interval, both ways: crossings that nearly cancel leave a small net
+  // mass under a large momentum, whose ratio would insert a particle at tens of m/s.
   void add_crossings(const std::vector<double>& mass, const std::vector<double>& momentum,
-                     const std::vector<double>& moment, const std::vector<int64_t>& histogram);
+                     const std::vector<double>& moment, const std::vector<int64_t>& histogram,
+                     const std::vector<double>& gross_mass = {}, const std::vector<double>& speed_mass = {});
   // Adds one interval of the fine level's mass that left the region, per face (GridStats
   // face_returned_mass); empty = none.
   void add_returned(const std::vector<double>& mass);
-  // Places what the remainders cover, given the fine particles in the slabs.
-  std::vector<Insert> plan(uint64_t interval, const std::vector<Sphere>& occupants);
+  // Places what the remainders cover, given the fine particles in the slabs of `reported` (the faces
+  // whose slabs the fine level reported; empty = every face's). A face not reported waits.
+  std::vector<Insert> plan(uint64_t interval, const std::vector<Sphere>& occupants,
+                           const std::vector<uint32_t>& reported = {});
   // Whether the fine level should report its slabs' particles at the end of `interval`: some face
   // will likely have a particle's mass to place (its remainder plus one more interval's crossing).
   // Faces whose slabs were full are retried every 4th interval only.
   bool wants_occupants(uint64_t interval) const;
+  // The faces whose slabs the fine level reports at the end of `interval` for the plan of interval + 1:
+  // empty = every face's (retry_full_every = 1). Otherwise those likely to have a particle's mass to place,
+  // a face whose slab was full only when interval + 1 is a multiple of retry_full_every.
+  std::vector<uint32_t> occupant_faces(uint64_t interval) const;
   // A placed particle that was never inserted (the run ended first): its mass goes back to its face.
   void unplace(const Insert& p);
 
@@ -97,7 +110,8 @@ class InsertionPlanner {
  private:
   template <class Rng> double draw_radius(const FaceState& f, Rng& rng) const;
   std::mt19937_64& rng(uint64_t interval, size_t f);  // face f's generator for this interval's plan
-  std::vector<char> draw_pending(uint64_t interval);   // per face: whether it tries to place this interval
+  std::vector<char> draw_pending(uint64_t interval, const std::vector<uint32_t>& reported);  // per face: tries now
+  bool likely_to_place(const FaceState& s) const;  // its remainder plus one more interval's crossing cover a particle
   void fill_hash(const std::vector<Sphere>& occupants, const std::vector<char>& tries);
   bool anchored_on(size_t f, const Vec3& a) const;  // a crossing point mean may serve face f as its anchor
   bool reachable(const Vec3& a) const;              // ... and lies inside the walls, seen from the inside point

@@ -306,6 +306,96 @@ TEST(InsertionPlanner, FullSlabCarriesTheRemainderToLaterIntervals) {
   EXPECT_LT(second.size(), first.size() / 4);
 }
 
+// retry_full_every = 4: a face whose slab was full tries (and has its slab reported) only before plans of
+// intervals that are multiples of 4; a face that placed last time is reported every interval; a face whose slab
+// was not reported does not place, whatever its remainder, and loses nothing.
+TEST(InsertionPlanner, AFullSlabIsRetriedEveryNthIntervalAndOnlyReportedFacesPlace) {
+  const bus::CouplingGeometry geo(small_grid());
+  auto prm = planner_params();
+  prm.retry_full_every = 4;
+  InsertionPlanner planner(geo, prm, inside_box);
+  const double m_coarse = 1000.0 * 4.0 / 3.0 * M_PI * std::pow(2.8e-3, 3);
+  const auto cross = [&](double m) {
+    bus::GridStats g;
+    face_flux(g, geo, m, {0, 0, -1});
+    planner.add_crossings({g.face_mass().begin(), g.face_mass().end()},
+                          {g.face_momentum().begin(), g.face_momentum().end()},
+                          {g.face_moment().begin(), g.face_moment().end()},
+                          {g.face_histogram().begin(), g.face_histogram().end()});
+  };
+  cross(200.0 * m_coarse);  // far more than a slab holds: every face ends its first plan full
+  std::vector<Sphere> occ;
+  for (const auto& p : planner.plan(1, {})) occ.push_back({p.x, p.r});
+  for (const auto& f : planner.faces()) ASSERT_GT(f.short_streak, 0u);
+  // Full faces: reported before the plans of intervals 4 and 8 only (asked at the end of 3 and 7).
+  for (uint64_t k = 1; k <= 8; ++k) {
+    const auto faces = planner.occupant_faces(k);
+    EXPECT_EQ(faces.size(), (k + 1) % 4 == 0 ? geo.faces() : 0u) << "interval " << k;
+    EXPECT_EQ(planner.wants_occupants(k), !faces.empty()) << "interval " << k;
+  }
+  // Face 0 alone reported, its slab emptied: it places, no other face does (their remainders stay).
+  std::vector<double> before;
+  for (const auto& f : planner.faces()) before.push_back(f.remainder);
+  const auto placed = planner.plan(4, {}, {0});
+  ASSERT_FALSE(placed.empty());
+  for (const auto& p : placed) EXPECT_EQ(p.face, 0);
+  for (size_t f = 1; f < geo.faces(); ++f) EXPECT_EQ(planner.faces()[f].remainder, before[f]) << "face " << f;
+  EXPECT_LT(planner.faces()[0].remainder, before[0]);
+  EXPECT_GT(planner.faces()[0].short_streak, 0u) << "its remainder overfills its slab again";
+  EXPECT_TRUE(planner.occupant_faces(5).empty());
+  EXPECT_EQ(planner.occupant_faces(7).size(), geo.faces());
+  // Faces that placed all they had (slabs not full) are reported at every interval while mass crosses.
+  InsertionPlanner fresh(geo, prm, inside_box);
+  bus::GridStats g;
+  face_flux(g, geo, 4.0 * m_coarse, {0, 0, -1});
+  fresh.add_crossings({g.face_mass().begin(), g.face_mass().end()},
+                      {g.face_momentum().begin(), g.face_momentum().end()},
+                      {g.face_moment().begin(), g.face_moment().end()},
+                      {g.face_histogram().begin(), g.face_histogram().end()});
+  ASSERT_FALSE(fresh.plan(1, {}).empty());
+  for (const auto& f : fresh.faces()) ASSERT_EQ(f.short_streak, 0u);
+  for (uint64_t k = 1; k <= 4; ++k) EXPECT_EQ(fresh.occupant_faces(k).size(), geo.faces()) << "interval " << k;
+  // retry_full_every = 1: every face's slab, as before (an empty list).
+  InsertionPlanner every(geo, planner_params(), inside_box);
+  EXPECT_TRUE(every.occupant_faces(3).empty());
+}
+
+// Crossings that nearly cancel: down 1.00 kg-units at 2 m/s, up 0.98 at 1.5 m/s. The net mean velocity is
+// (-2 - 0.98 x 1.5) / 0.02 = -173.5 m/s; the particles are inserted no faster than the crossings' mean speed,
+// (2 + 0.98 x 1.5) / 1.98 m/s, along the net direction. One-way crossings keep their mean velocity exactly.
+TEST(InsertionPlanner, ANearlyCancellingCrossingInsertsNoFasterThanTheCrossingsMeanSpeed) {
+  const bus::CouplingGeometry geo(small_grid());
+  const double m = 1000.0 * 4.0 / 3.0 * M_PI * std::pow(2.8e-3, 3), n = 30.0 * m;  // 30 coarse particles' mass
+  const size_t nf = geo.faces(), nb = planner_params().radius_bins.size() - 1;
+  const auto run = [&](double up, std::vector<double> gross, std::vector<double> speed) {
+    InsertionPlanner planner(geo, planner_params(), inside_box);
+    std::vector<double> mass(nf), momentum(3 * nf), moment(3 * nf);
+    for (size_t f = 0; f < nf; ++f) {
+      const Vec3 c = geo.cell_centre(geo.cell_of_face(f));
+      mass[f] = n - up * n;
+      momentum[3 * f + 2] = -2.0 * n - up * n * 1.5;
+      moment[3 * f] = mass[f] * c.x;
+      moment[3 * f + 1] = mass[f] * c.y;
+      moment[3 * f + 2] = mass[f] * geo.top();
+    }
+    planner.add_crossings(mass, momentum, moment, std::vector<int64_t>(nb * nf, 1), gross, speed);
+    return planner;
+  };
+  const double bound = (2.0 + 0.98 * 1.5) / 1.98;
+  const auto mixed = run(0.98, std::vector<double>(nf, 1.98 * n), std::vector<double>(nf, (2.0 + 0.98 * 1.5) * n));
+  const auto unbounded = run(0.98, {}, {});
+  for (size_t f = 0; f < nf; ++f) {
+    EXPECT_NEAR(mixed.faces()[f].velocity.z, -bound, 1e-12) << "face " << f;
+    EXPECT_NEAR(unbounded.faces()[f].velocity.z, -173.5, 1e-9) << "without the two-way sums: the net mean";
+  }
+  const auto one_way = run(0.0, std::vector<double>(nf, n), std::vector<double>(nf, 2.0 * n));
+  for (size_t f = 0; f < nf; ++f) EXPECT_EQ(one_way.faces()[f].velocity.z, (-2.0 * n) / n) << "face " << f;
+  InsertionPlanner planner(geo, planner_params(), inside_box);
+  const std::vector<double> zeros(nf), short_one(nf - 1), zeros3(3 * nf);
+  EXPECT_THROW(planner.add_crossings(zeros, zeros3, zeros3, std::vector<int64_t>(nb * nf), short_one, zeros),
+               std::invalid_argument);
+}
+
 TEST(InsertionPlanner, SameSeedSamePlanOtherSeedAnotherPlan) {
   const bus::CouplingGeometry geo(small_grid());
   auto run = [&](uint64_t seed) {

@@ -159,6 +159,27 @@ TEST(FaceFlux, UpwardCrossingSubtracts) {
   EXPECT_EQ(ff.histogram[0], -1);
 }
 
+// A particle falling in at 2 m/s and a slightly lighter one rising out at 1.5 m/s: the net sums nearly cancel,
+// the two-way sums (mass and mass times speed) add.
+TEST(FaceFlux, CrossingsBothWaysAddToTheGrossMassAndSpeedSums) {
+  const bus::CouplingGeometry geo(make_grid({0, 0, 0}, 0.01, 1, 1, 1, {1e-3, 2e-3}));
+  Particles p;
+  add(p, {0.003, 0.005, 0.0101}, 1.5e-3, {0, 0, -2.0});
+  add(p, {0.007, 0.005, 0.0099}, 1.45e-3, {0.3, 0, 1.5});
+  FaceFlux ff(geo);
+  ff.refresh(p, 0.005);
+  drift(p, 1e-3);
+  ff.check(p);
+  const double m0 = p.mass[0], m1 = p.mass[1];
+  EXPECT_DOUBLE_EQ(ff.mass[0], m0 - m1);
+  EXPECT_DOUBLE_EQ(ff.gross_mass[0], m0 + m1);
+  EXPECT_NEAR(ff.speed_mass[0], m0 * 2.0 + m1 * std::hypot(0.3, 1.5), 1e-15);
+  EXPECT_GT(std::fabs(ff.momentum[2] / ff.mass[0]), 20.0) << "the net mean is far faster than either particle";
+  ff.reset();
+  EXPECT_EQ(ff.gross_mass[0], 0.0);
+  EXPECT_EQ(ff.speed_mass[0], 0.0);
+}
+
 // --- controller forces -------------------------------------------------------
 
 TEST(ControllerForces, TractionOfACellSumsToTh2AndFadesToZero) {
@@ -385,6 +406,69 @@ TEST(GridLink, InsertionListRemovalAndOccupantsAreCounted) {
 }
 
 // --- cell statistics -----------------------------------------------------------
+// The coupler asks for some faces' slabs only ([coupling] retry_full_every above 1): every particle a sphere the
+// planner may place in those slabs can touch is reported (checked against random candidate spheres, each
+// particle tested directly), far fewer than with every face's slabs, and the reply names the faces.
+TEST(GridLink, OccupantsOfTheAskedFacesCoverEveryParticleACandidateInTheirSlabsCanTouch) {
+  auto grid = make_grid({0, 0, 0}, 0.01, 3, 3, 2);
+  grid.set_insert_depth(0.004);
+  grid.add_side_faces(4 * 5 + 1);  // +x side of cell (2, 1, 0)
+  const bus::CouplingGeometry geo(grid);
+  ASSERT_EQ(geo.faces(), 10u);
+  const std::vector<uint32_t> asked{4, 9};  // the middle top face and the side face
+  const double r_max = 6e-4;
+  Particles p;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 20000; ++i)
+    add(p, {0.032 * u(rng) - 0.001, 0.032 * u(rng) - 0.001, 0.022 * u(rng)}, r_max * (0.5 + 0.5 * u(rng)));
+  const auto reported = [&](const std::vector<uint32_t>& faces) {
+    GridLink fine(0, grid, Role::Fine);
+    bus::GridCommands c;
+    c.set_grid(0);
+    c.set_want_occupants(true);
+    for (uint32_t f : faces) c.add_occupant_faces(f);
+    fine.begin_interval(&c, p, Comm{}, 0, 0.0);
+    const bus::GridStats g = fine.finish(p, Comm{}, r_max);
+    EXPECT_EQ(std::vector<uint32_t>(g.occupant_faces().begin(), g.occupant_faces().end()), faces);
+    std::vector<Vec3> out;
+    for (int i = 0; i + 3 < g.occupants_size(); i += 4)
+      out.push_back({g.occupants(i), g.occupants(i + 1), g.occupants(i + 2)});
+    return out;
+  };
+  const auto some = reported(asked), all = reported({});
+  EXPECT_LT(3 * some.size(), all.size()) << "two faces' slabs of ten";
+  const auto listed = [&](const Vec3& x) {
+    return std::any_of(some.begin(), some.end(), [&](const Vec3& y) { return y == x; });
+  };
+  int touching = 0;
+  for (const uint32_t f : asked)
+    for (int k = 0; k < 300; ++k) {
+      // A candidate as the planner draws it: radius up to r_max, the whole sphere inside the slab along its normal.
+      const double r = r_max * (0.5 + 0.5 * u(rng));
+      Vec3 lo, hi;
+      geo.face_slab(f, grid.insert_depth(), lo, hi);
+      const int axis = geo.normal_axis(f);
+      lo[axis] += r;
+      hi[axis] -= r;
+      const Vec3 x{lo.x + (hi.x - lo.x) * u(rng), lo.y + (hi.y - lo.y) * u(rng), lo.z + (hi.z - lo.z) * u(rng)};
+      for (size_t i = 0; i < p.n_local(); ++i)
+        if (norm2(p.x[i] - x) < (r + p.radius[i]) * (r + p.radius[i])) {
+          ++touching;
+          EXPECT_TRUE(listed(p.x[i])) << "face " << f << ": particle " << i << " touches a candidate, not reported";
+        }
+    }
+  EXPECT_GT(touching, 500);
+  EXPECT_THROW(
+      {
+        GridLink fine(0, grid, Role::Fine);
+        bus::GridCommands c;
+        c.add_occupant_faces(10);
+        fine.begin_interval(&c, p, Comm{}, 0, 0.0);
+      },
+      std::invalid_argument);
+}
+
 
 // The coupler reads the stress of every cell that holds a boundary face, the top's and an open side's (the
 // transition layer's controllers): those cells carry the stress of Eq. 8, summed here particle by particle;

@@ -402,13 +402,15 @@ TEST(MlcgRecovery, InterruptThenResumeGivesTheUninterruptedResult) {
   }
 }
 
-TEST(MlcgRecovery, StatisticsSentEarlyHandMassOverExactlyAndResumeToTheUninterruptedResult) {
+TEST(MlcgRecovery, StatisticsSentEarlyAndFullSlabsRetriedLaterHandMassOverExactlyAndResumeToTheUninterruptedResult) {
   // [coupling] lead = 0.5: every level builds its statistics half an interval early and counts the rest of the
   // interval into the next ones. Nothing may fall between: the per-face totals against what the fine level
   // received, and a checkpoint at an interval's end must carry those last steps' crossings and removals, or the
-  // resumed run parts from the uninterrupted one.
+  // resumed run parts from the uninterrupted one. retry_full_every = 4: the fine level reports only the slabs of
+  // the faces that may try, which must still hold every particle an insertion could overlap, and the faces
+  // asked for travel in the commands a resumed run sends again.
   const fs::path cfile = mlcg::test::copy_case(kSrc + "/cases/quickstart/mlcg.toml", fresh_temp_path("lead_case"),
-                                               {{"[coupling]", "[coupling]\nlead = 0.5"}});
+                                               {{"[coupling]", "[coupling]\nlead = 0.5\nretry_full_every = 4"}});
   const fs::path ref = run_hierarchy_case(cfile.string(), "lead_ref");
   const auto s = read_json(ref / "summary.json");
   EXPECT_EQ(s["status"], "completed");

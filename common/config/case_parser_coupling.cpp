@@ -164,6 +164,7 @@ void read_coupling(const Table& root, CaseSpec& spec, const Names& names) {
   c.checkpoint_every = d.value<double>("checkpoint_every");
   c.lead = d.value<double>("lead");
   c.samples = static_cast<int>(d.value<int64_t>("samples"));
+  c.retry_full_every = static_cast<int>(d.value<int64_t>("retry_full_every"));
 
   const auto tables = array_of_tables(*t, "regions");
   if (tables.empty())

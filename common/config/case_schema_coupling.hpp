@@ -24,6 +24,10 @@ inline constexpr KeySpec kCoupling[] = {
     // Each sample is a pass over the level's particles in the region and a stress-accumulating force step.
     {"samples", "integer", "`2`", "1 to 64", "the cell samples per coupling interval", closed(1.0, 64.0), "",
      "the number of cell samples per interval"},
+    // The plan moves with it: a full slab's mass waits for its next try.
+    {"retry_full_every", "integer", "`1`", "1 to 64",
+     "the intervals between the insertion tries of a boundary face whose slab was full", closed(1.0, 64.0), "",
+     "intervals between a full slab's insertion tries"},
     {"regions", "array of tables", "*required*", "at least one", "one [[coupling.regions]] entry per finer level"},
 };
 

@@ -275,6 +275,9 @@ struct CouplingSpec {              // [coupling]
                                    //   next interval's, so that the coupler's answer overlaps them
   int samples = 2;                 // samples in [1, 64]: cell samples per interval, evenly over the steps up to
                                    //   the statistics (the last of them always samples); each is a stress step
+  int retry_full_every = 1;        // retry_full_every in [1, 64]: a boundary face whose insertion slab was full
+                                   //   tries again at intervals that are multiples of it; above 1 the fine level
+                                   //   reports only the slabs of the faces that may try
   std::vector<CouplingRegionSpec> regions;
   SourceLoc loc;
   bool operator==(const CouplingSpec&) const = default;

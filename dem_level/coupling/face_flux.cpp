@@ -29,6 +29,8 @@ void FaceFlux::reset() {
   momentum.assign(3 * nf_, 0.0);
   moment.assign(3 * nf_, 0.0);
   histogram.assign(nf_ * nb_, 0);
+  gross_mass.assign(nf_, 0.0);
+  speed_mass.assign(nf_, 0.0);
 }
 
 void FaceFlux::refresh(const Particles& p, double band, size_t from) {
@@ -45,6 +47,8 @@ void FaceFlux::add(size_t f, double m, const Vec3& v, const Vec3& x, double r, i
     momentum[3 * f + a] += mv[static_cast<int>(a)];
     moment[3 * f + a] += mx[static_cast<int>(a)];
   }
+  gross_mass[f] += std::fabs(m);
+  speed_mass[f] += std::fabs(m) * norm(v);
   const int b = std::max(0, face_radius_bin(edges_, r));
   histogram[f * nb_ + static_cast<size_t>(b)] += sign;
 }
@@ -82,14 +86,14 @@ void FaceFlux::add_born(const Vec3& x, const Vec3& v, double m, double r) {
 void FaceFlux::reduce(const Comm& comm) {
   if (comm.serial()) return;
   std::vector<double> all;
-  all.reserve(7 * nf_);
-  all.insert(all.end(), mass.begin(), mass.end());
-  all.insert(all.end(), momentum.begin(), momentum.end());
-  all.insert(all.end(), moment.begin(), moment.end());
+  std::vector<double>* parts[] = {&mass, &momentum, &moment, &gross_mass, &speed_mass};
+  for (const auto* v : parts) all.insert(all.end(), v->begin(), v->end());
   comm.sum_in_place(all.data(), all.size());
-  std::copy(all.begin(), all.begin() + static_cast<long>(nf_), mass.begin());
-  std::copy(all.begin() + static_cast<long>(nf_), all.begin() + static_cast<long>(4 * nf_), momentum.begin());
-  std::copy(all.begin() + static_cast<long>(4 * nf_), all.end(), moment.begin());
+  auto at = all.begin();
+  for (auto* v : parts) {
+    std::copy(at, at + static_cast<long>(v->size()), v->begin());
+    at += static_cast<long>(v->size());
+  }
   comm.sum_in_place(histogram.data(), histogram.size());
 }
 

@@ -46,6 +46,9 @@ class FaceFlux {
   // This rank's sums (after reduce(): every rank's), in the GridStats layout.
   std::vector<double> mass, momentum, moment;  // nf, 3 nf, 3 nf
   std::vector<int64_t> histogram;              // nf x bins, face-major
+  // Both ways added, not netted: sum m and sum m |v| per face. The coupler bounds the speed of the net
+  // crossing's mean velocity by their ratio (near-cancelling crossings make momentum / mass arbitrary).
+  std::vector<double> gross_mass, speed_mass;  // nf, nf
 
  private:
   void add(size_t f, double m, const Vec3& v, const Vec3& x, double r, int sign);  // m < 0: outward

@@ -81,6 +81,14 @@ void GridLink::begin_interval(const bus::GridCommands* c, const Particles& p, co
     throw std::invalid_argument(where + e.what());
   }
   want_occupants_ = c == nullptr || c->want_occupants();
+  occupant_faces_.clear();
+  if (c)
+    for (const uint32_t f : c->occupant_faces()) {
+      if (f >= geo_.faces())
+        throw std::invalid_argument("occupant_faces names face " + std::to_string(f) + " of " +
+                                    std::to_string(geo_.faces()));
+      occupant_faces_.push_back(f);
+    }
   inserted_ = inserted;
   inserted_mass_ = inserted_mass;
 }
@@ -90,6 +98,8 @@ std::vector<double> GridLink::pending() const {
   v.insert(v.end(), flux_.momentum.begin(), flux_.momentum.end());
   v.insert(v.end(), flux_.moment.begin(), flux_.moment.end());
   for (const int64_t h : flux_.histogram) v.push_back(static_cast<double>(h));  // counts far below 2^53
+  v.insert(v.end(), flux_.gross_mass.begin(), flux_.gross_mass.end());
+  v.insert(v.end(), flux_.speed_mass.begin(), flux_.speed_mass.end());
   v.push_back(removed_);
   v.push_back(removed_mass_);
   v.insert(v.end(), returned_.begin(), returned_.end());
@@ -115,6 +125,8 @@ void GridLink::set_pending(const std::vector<double>& v) {
   take(flux_.momentum);
   take(flux_.moment);
   take(flux_.histogram);
+  take(flux_.gross_mass);
+  take(flux_.speed_mass);
   removed_ = *at++;
   removed_mass_ = *at++;
   returned_.assign(at, v.end());
@@ -129,6 +141,8 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
     g.mutable_face_momentum()->Assign(flux_.momentum.begin(), flux_.momentum.end());
     g.mutable_face_moment()->Assign(flux_.moment.begin(), flux_.moment.end());
     g.mutable_face_histogram()->Assign(flux_.histogram.begin(), flux_.histogram.end());
+    g.mutable_face_gross_mass()->Assign(flux_.gross_mass.begin(), flux_.gross_mass.end());
+    g.mutable_face_speed_mass()->Assign(flux_.speed_mass.begin(), flux_.speed_mass.end());
   }
   const CellMeans m = cells_.take();
   g.mutable_cell_stress()->Assign(m.stress.begin(), m.stress.end());
@@ -136,31 +150,11 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
   g.mutable_cell_velocity()->Assign(m.velocity.begin(), m.velocity.end());
   g.mutable_cell_max_speed()->Assign(m.max_speed.begin(), m.max_speed.end());
   if (role_ == Role::Fine && want_occupants_) {
-    // Occupants of the insertion slabs: centres within r_max of the slabs inside the boundary surface.
-    const double depth = geo_.grid().insert_depth(), zlo = top_ - depth - r_max, zhi = top_ + r_max;
-    const auto near_open_side = [&](const Vec3& x) {
-      if (x.z < lo_.z - r_max || x.z > zhi || x.x < lo_.x - r_max || x.x > hi_.x + r_max || x.y < lo_.y - r_max ||
-          x.y > hi_.y + r_max)
-        return false;
-      for (const bus::Side s : geo_.open_sides()) {
-        const double d = geo_.depth_inside(s, x);
-        if (d >= -r_max && d <= depth + r_max) return true;
-      }
-      return false;
-    };
-    std::vector<char> buf;
-    ByteWriter w(buf);
-    for (size_t i = 0; i < p.n_local(); ++i) {
-      const Vec3 x = ahead > 0.0 ? p.x[i] + p.v[i] * ahead : p.x[i];
-      const bool below_top = !(x.z < zlo || x.z > zhi || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y);
-      if (!below_top && !(!geo_.open_sides().empty() && near_open_side(x))) continue;
-      const double q[4] = {x.x, x.y, x.z, p.radius[i]};
-      w.put_n(q, 4);
-    }
-    const std::vector<char> all = comm.gather0(buf);
+    const std::vector<char> all = comm.gather0(occupants(p, r_max, ahead));
     g.mutable_occupants()->Resize(static_cast<int>(all.size() / sizeof(double)), 0.0);
     if (!all.empty()) std::memcpy(g.mutable_occupants()->mutable_data(), all.data(), all.size());
     g.set_occupants_sent(true);
+    g.mutable_occupant_faces()->Assign(occupant_faces_.begin(), occupant_faces_.end());
   }
   {  // both roles: the mass in the region, independent of the crossing counts (a mass check)
     double m[2] = {0.0, 0.0};  // in the region; out of it and due for removal at the next rebuild
@@ -191,6 +185,51 @@ bus::GridStats GridLink::finish(const Particles& p, const Comm& comm, double r_m
   removed_ = removed_mass_ = 0.0;
   returned_.assign(geo_.faces(), 0.0);
   return g;
+}
+
+std::vector<char> GridLink::occupants(const Particles& p, double r_max, double ahead) const {
+  // Centres within r_max of the slabs inside the boundary surface, where their velocity takes them by the
+  // insertion (x y z r each).
+  const double depth = geo_.grid().insert_depth(), zlo = top_ - depth - r_max, zhi = top_ + r_max;
+  const auto near_open_side = [&](const Vec3& x) {
+    if (x.z < lo_.z - r_max || x.z > zhi || x.x < lo_.x - r_max || x.x > hi_.x + r_max || x.y < lo_.y - r_max ||
+        x.y > hi_.y + r_max)
+      return false;
+    for (const bus::Side s : geo_.open_sides()) {
+      const double d = geo_.depth_inside(s, x);
+      if (d >= -r_max && d <= depth + r_max) return true;
+    }
+    return false;
+  };
+  // Only some faces' slabs: a candidate centre lies in its face's slab, its sphere reaches r_max beyond it, so
+  // an occupant it may touch lies within 2 r_max of that slab.
+  std::vector<Vec3> box_lo, box_hi;
+  for (const uint32_t f : occupant_faces_) {
+    Vec3 a, b;
+    geo_.face_slab(f, depth, a, b);
+    box_lo.push_back(a);
+    box_hi.push_back(b);
+  }
+  const auto near_a_slab = [&](const Vec3& x) {
+    for (size_t b = 0; b < box_lo.size(); ++b)
+      if (bus::near_box(x, box_lo[b], box_hi[b], 2.0 * r_max)) return true;
+    return false;
+  };
+  std::vector<char> buf;
+  ByteWriter w(buf);
+  const bool some = !occupant_faces_.empty();
+  for (size_t i = 0; i < p.n_local(); ++i) {
+    const Vec3 x = ahead > 0.0 ? p.x[i] + p.v[i] * ahead : p.x[i];
+    if (some) {
+      if (!near_a_slab(x)) continue;
+    } else {
+      const bool below_top = !(x.z < zlo || x.z > zhi || x.x < lo_.x || x.x > hi_.x || x.y < lo_.y || x.y > hi_.y);
+      if (!below_top && !(!geo_.open_sides().empty() && near_open_side(x))) continue;
+    }
+    const double q[4] = {x.x, x.y, x.z, p.radius[i]};
+    w.put_n(q, 4);
+  }
+  return buf;
 }
 
 std::vector<GridLink> links_of(const bus::Welcome& w) {

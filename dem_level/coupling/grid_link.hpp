@@ -88,7 +88,7 @@ class GridLink {
   // interval's end, and their restoration; set_pending throws std::invalid_argument on a size that does not fit.
   std::vector<double> pending() const;
   void set_pending(const std::vector<double>& v);
-  size_t pending_size() const { return 7 * flux_.faces() + flux_.histogram.size() + 2 + returned_.size(); }
+  size_t pending_size() const { return 9 * flux_.faces() + flux_.histogram.size() + 2 + returned_.size(); }
   // The mass those sums carry, this rank's: crossed both ways (coarse role) and removed (fine role) [kg].
   double pending_mass() const;
 
@@ -100,6 +100,8 @@ class GridLink {
   // can be in a cell before the next rebuild. A coarse level's region is a small part of it, and the
   // per-step passes (accelerations, cell samples) would otherwise visit every particle.
   const std::vector<uint32_t>* box_list() const { return in_box_valid_ ? &in_box_ : nullptr; }
+  // Fine role: this rank's occupants of the slabs the coupler asked for (x y z r each, as bytes).
+  std::vector<char> occupants(const Particles& p, double r_max, double ahead) const;
 
   uint32_t index_;
   Role role_;
@@ -108,6 +110,7 @@ class GridLink {
   Vec3 lo_, hi_;
   FaceFlux flux_;
   bool want_occupants_ = true;  // the coupler asked for the slabs' particles this interval
+  std::vector<uint32_t> occupant_faces_;  // ... of these faces' slabs only (empty: every face's)
   CellStats cells_;
   ControllerForces forces_;
   uint64_t inserted_ = 0;
