@@ -87,6 +87,7 @@ void Coupler::save(bus::CouplerCheckpoint& out) const {
       fc.set_short_streak(f.short_streak);
       fc.set_last_crossed(f.last_crossed);
       fc.set_returned(f.returned);
+      fc.set_bounded(f.bounded);
     }
     for (const auto& pi : r->pi) {
       rc.add_pi_integral(pi.integral);
@@ -138,6 +139,7 @@ void Coupler::restore(const bus::CouplerCheckpoint& in) {
       s.short_streak = fc.short_streak();
       s.last_crossed = fc.last_crossed();
       s.returned = fc.returned();
+      s.bounded = fc.bounded();
       r.pi[f].integral = rc.pi_integral(static_cast<int>(f));
       r.pi[f].output = rc.pi_output(static_cast<int>(f));
     }

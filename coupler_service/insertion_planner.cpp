@@ -49,7 +49,10 @@ void InsertionPlanner::add_crossings(const std::vector<double>& mass, const std:
       // One-way crossings give a mean no faster than their mean speed (to rounding): only a mix is bounded.
       const double speed = norm(s.velocity);
       const double bound = speeds && gross_mass[f] > 0.0 ? speed_mass[f] / gross_mass[f] : -1.0;
-      if (bound >= 0.0 && speed > bound * (1.0 + 1e-9)) s.velocity *= bound / speed;
+      if (bound >= 0.0 && speed > bound * (1.0 + 1e-9)) {
+        s.velocity *= bound / speed;
+        ++s.bounded;
+      }
       const Vec3 a = Vec3{moment[3 * f], moment[3 * f + 1], moment[3 * f + 2]} / mass[f];
       if (anchored_on(f, a) && reachable(a)) {
         s.anchor = a;

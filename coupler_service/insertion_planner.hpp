@@ -64,6 +64,7 @@ struct FaceState {
   uint64_t short_intervals = 0;  // intervals that ended with room lacking for the next particle
   uint64_t short_streak = 0;     // consecutive such intervals (0 after a placement)
   double last_crossed = 0.0;     // net coarse mass of the latest interval [kg]
+  uint64_t bounded = 0;          // intervals whose net mean velocity exceeded the crossings' mean speed
 };
 
 // Accepts a sphere centre x, radius r, given a point `anchor` known to be

@@ -254,7 +254,7 @@ void Service::write_final(const std::string& status) const {
     const auto& geo = coupler_.geometry(r);
     std::string csv = "face,x,y,crossed_kg,inserted_kg,remainder_kg,placed,short_intervals,returned_kg,side,z\n";
     double crossed = 0.0, inserted = 0.0, remainder = 0.0, returned = 0.0, worst = 0.0;
-    uint64_t placed = 0;
+    uint64_t placed = 0, bounded = 0;
     const auto& faces = coupler_.planner(r).faces();
     for (size_t f = 0; f < faces.size(); ++f) {
       const auto& s = faces[f];
@@ -270,6 +270,7 @@ void Service::write_final(const std::string& status) const {
       inserted += s.inserted;
       remainder += s.remainder;
       placed += s.placed;
+      bounded += s.bounded;
       // Rounding only (the remainder is defined by the ledger): the mass checks are elsewhere.
       if (s.crossed != 0.0)
         worst = std::max(worst, std::fabs(s.crossed + s.returned - s.inserted - s.remainder) / std::fabs(s.crossed));
@@ -279,7 +280,8 @@ void Service::write_final(const std::string& status) const {
                             {"top", geo.top()},
                             {"crossed_kg", crossed}, {"inserted_kg", inserted}, {"remainder_kg", remainder},
                             {"returned_kg", returned},
-                            {"inserted_particles", placed}, {"worst_face_mass_error", worst}});
+                            {"inserted_particles", placed}, {"worst_face_mass_error", worst},
+                            {"velocities_bounded", bounded}});
     const std::string unplaced = unplaced_warning(r, remainder, crossed + returned, placed);
     if (!unplaced.empty()) j["regions"].back()["unplaced_warning"] = unplaced;
   }

@@ -387,9 +387,14 @@ TEST(InsertionPlanner, ANearlyCancellingCrossingInsertsNoFasterThanTheCrossingsM
   for (size_t f = 0; f < nf; ++f) {
     EXPECT_NEAR(mixed.faces()[f].velocity.z, -bound, 1e-12) << "face " << f;
     EXPECT_NEAR(unbounded.faces()[f].velocity.z, -173.5, 1e-9) << "without the two-way sums: the net mean";
+    EXPECT_EQ(mixed.faces()[f].bounded, 1u);
+    EXPECT_EQ(unbounded.faces()[f].bounded, 0u);
   }
   const auto one_way = run(0.0, std::vector<double>(nf, n), std::vector<double>(nf, 2.0 * n));
-  for (size_t f = 0; f < nf; ++f) EXPECT_EQ(one_way.faces()[f].velocity.z, (-2.0 * n) / n) << "face " << f;
+  for (size_t f = 0; f < nf; ++f) {
+    EXPECT_EQ(one_way.faces()[f].velocity.z, (-2.0 * n) / n) << "face " << f;
+    EXPECT_EQ(one_way.faces()[f].bounded, 0u);
+  }
   InsertionPlanner planner(geo, planner_params(), inside_box);
   const std::vector<double> zeros(nf), short_one(nf - 1), zeros3(3 * nf);
   EXPECT_THROW(planner.add_crossings(zeros, zeros3, zeros3, std::vector<int64_t>(nb * nf), short_one, zeros),

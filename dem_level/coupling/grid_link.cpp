@@ -204,13 +204,19 @@ std::vector<char> GridLink::occupants(const Particles& p, double r_max, double a
   // Only some faces' slabs: a candidate centre lies in its face's slab, its sphere reaches r_max beyond it, so
   // an occupant it may touch lies within 2 r_max of that slab.
   std::vector<Vec3> box_lo, box_hi;
+  Vec3 all_lo{1e300, 1e300, 1e300}, all_hi{-1e300, -1e300, -1e300};  // around every asked slab: most fail it
   for (const uint32_t f : occupant_faces_) {
     Vec3 a, b;
     geo_.face_slab(f, depth, a, b);
     box_lo.push_back(a);
     box_hi.push_back(b);
+    for (int k = 0; k < 3; ++k) {
+      all_lo[k] = std::min(all_lo[k], a[k]);
+      all_hi[k] = std::max(all_hi[k], b[k]);
+    }
   }
   const auto near_a_slab = [&](const Vec3& x) {
+    if (!bus::near_box(x, all_lo, all_hi, 2.0 * r_max)) return false;
     for (size_t b = 0; b < box_lo.size(); ++b)
       if (bus::near_box(x, box_lo[b], box_hi[b], 2.0 * r_max)) return true;
     return false;
