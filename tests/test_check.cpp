@@ -126,9 +126,7 @@ void expect_same_refusal(const fs::path& bad, const std::string& expected) {
   EXPECT_EQ(c, r) << "check:\n" << c << "run:\n" << r;
   EXPECT_NE(c.find(expected), std::string::npos) << c;
   EXPECT_FALSE(fs::exists(runs)) << "a refused case must not start a run";
-  fs::remove(check_err);
-  fs::remove(run_err);
-  fs::remove(bad);
+  mlcg::test::remove_case_copy(bad);  // its folder: the case, its bases and the two .err files
 }
 
 }  // namespace
@@ -157,8 +155,7 @@ TEST(Check, RefusesWhatTheTimeStepGuardRefusesWithTheLevelsMessage) {
   EXPECT_NE(run(kBin + "/mlcg run " + bad.string() + " --out " + runs.string() + " > " + bad.string() + ".run 2>&1"), 0);
   EXPECT_NE(slurp(bad.string() + ".run").find(err), std::string::npos) << "run:\n" << slurp(bad.string() + ".run")
                                                                        << "check:\n" << err;
-  for (const char* ext : {".out", ".err", ".run"}) fs::remove(bad.string() + ext);
-  fs::remove(bad);
+  mlcg::test::remove_case_copy(bad);  // its folder: the case, its bases and the outputs beside it
   fs::remove_all(runs);
 }
 
@@ -181,8 +178,7 @@ TEST(Check, AFastBeltIsRefusedBeforeStep1NamingTheWall) {
   EXPECT_NE(out.find("wall 'belt' moves its surface at [20, 0, 0] m/s (20 m/s), the geometry in place"),
             std::string::npos)
       << out;
-  for (const char* ext : {".out", ".err"}) fs::remove(bad.string() + ext);
-  fs::remove(bad);
+  mlcg::test::remove_case_copy(bad);  // its folder: the case, its bases and the outputs beside it
 }
 
 // Every level of a hierarchy whose guard refuses is named, with the message that level gives under `mlcg run`
@@ -200,8 +196,7 @@ TEST(Check, NamesEveryLevelOfAHierarchyWhoseGuardRefuses) {
   for (const char* part : {"levels[coarse].dt: time step refused", "levels[fine].dt: time step refused", "30.1 m/s",
                            "use dt <= 2.008e-05 s", "use dt <= 1.004e-05 s"})
     EXPECT_NE(err.find(part), std::string::npos) << part << " missing in:\n" << err;
-  fs::remove(bad.string() + ".err");
-  fs::remove(bad);
+  mlcg::test::remove_case_copy(bad);  // its folder: the case, its bases and the .err beside it
 }
 
 // The estimate against a real run: the quickstart cut to 0.2 s (the lid stays closed: filling and settling,

@@ -23,7 +23,7 @@ using namespace mlcg::coupling;
 namespace fs = std::filesystem;
 using mlcg::test::read_json;
 using mlcg::test::slurp;
-using mlcg::test::temp_path;
+using mlcg::test::TempDir;
 using std::chrono::milliseconds;
 
 namespace {
@@ -34,6 +34,16 @@ std::string endpoint() {
   static std::atomic<int> n{0};
   return "ipc:///tmp/mlcg_cpl_" + std::to_string(getpid()) + "_" + std::to_string(n++) + ".ipc";
 }
+
+// Removes the socket file of an ipc:// endpoint at the end of its scope (as in test_coupling_client): the
+// socket that bound it leaves it behind. Declared before the socket's context, so destroyed after it.
+struct IpcCleanup {
+  std::string ep;
+  ~IpcCleanup() {
+    std::error_code ec;
+    fs::remove(ep.substr(6), ec);
+  }
+};
 
 bus::CouplingGrid grid(uint32_t coarse, uint32_t fine, double ratio_coarse_radius, double z0) {
   bus::CouplingGrid g;
@@ -214,6 +224,7 @@ RunResult run_hierarchy(const std::vector<double>& alphas, uint64_t intervals, c
   const CouplerConfig cfg = config(alphas);
   Coupler coupler(cfg, fits);
   const std::string ep = endpoint();
+  const IpcCleanup ipc_cleanup{ep};
   zmq::context_t ctx;
   bus::Channel ch(ctx, bus::Channel::Role::Router, ep, {}, 4096 * 16);
   ServiceOptions opt;
@@ -272,16 +283,11 @@ void expect_exact_per_face(const RunResult& run, const std::vector<double>& alph
   }
 }
 
-fs::path scratch(const std::string& name) {
-  const fs::path p = temp_path("cpl") / name;
-  fs::remove_all(p);
-  return p;
-}
-
 }  // namespace
 
 TEST(CouplerService, TwoScriptedLevelsRunToTheEndWithExactMass) {
-  const RunResult run = run_hierarchy({2.0, 1.0}, 60, scratch("two"));
+  const TempDir out("cpl_two");
+  const RunResult run = run_hierarchy({2.0, 1.0}, 60, out.path());
   ASSERT_EQ(run.code, 0) << run.error;
   EXPECT_EQ(run.levels[0].intervals, 60u);
   EXPECT_EQ(run.levels[1].intervals, 60u);
@@ -301,8 +307,8 @@ TEST(CouplerService, TwoScriptedLevelsRunToTheEndWithExactMass) {
 // The bus load the coupler reports per level (coupling/summary.json) is what the levels counted on
 // their side of the socket, to the byte.
 TEST(CouplerService, ReportsTheBusBytesEachLevelCounted) {
-  const fs::path out = scratch("bytes");
-  const RunResult run = run_hierarchy({4.0, 2.0, 1.0}, 25, out);
+  const TempDir out("cpl_bytes");
+  const RunResult run = run_hierarchy({4.0, 2.0, 1.0}, 25, out.path());
   ASSERT_EQ(run.code, 0) << run.error;
   const auto j = read_json(out / "coupling" / "summary.json");
   ASSERT_EQ(j["levels"].size(), 3u);
@@ -318,8 +324,9 @@ TEST(CouplerService, ReportsTheBusBytesEachLevelCounted) {
 }
 
 TEST(CouplerService, SameSeedGivesIdenticalCouplerLogs) {
-  const RunResult a = run_hierarchy({2.0, 1.0}, 40, scratch("det_a"));
-  const RunResult b = run_hierarchy({2.0, 1.0}, 40, scratch("det_b"));
+  const TempDir out_a("cpl_det_a"), out_b("cpl_det_b");
+  const RunResult a = run_hierarchy({2.0, 1.0}, 40, out_a.path());
+  const RunResult b = run_hierarchy({2.0, 1.0}, 40, out_b.path());
   ASSERT_EQ(a.code, 0) << a.error;
   ASSERT_EQ(b.code, 0) << b.error;
   EXPECT_GT(a.csv.size(), 1000u);
@@ -351,7 +358,8 @@ TEST(CouplerService, MalformedOversizedAndWrongVersionMessagesAreRefusedAndTheRu
       }
     }
   };
-  const RunResult run = run_hierarchy({2.0, 1.0}, 30, scratch("bad"), intruder);
+  const TempDir out("cpl_bad");
+  const RunResult run = run_hierarchy({2.0, 1.0}, 30, out.path(), intruder);
   ASSERT_EQ(run.code, 0) << run.error;
   EXPECT_EQ(run.refused, 4u);
   ASSERT_EQ(answers.size(), 4u);
@@ -366,6 +374,7 @@ TEST(CouplerService, ALevelOfAnotherCaseIsRefusedAndTheMissingLevelNamed) {
   const CouplerConfig cfg = config({2.0, 1.0});
   Coupler coupler(cfg, fits);
   const std::string ep = endpoint();
+  const IpcCleanup ipc_cleanup{ep};
   zmq::context_t ctx;
   bus::Channel ch(ctx, bus::Channel::Role::Router, ep, {});
   ServiceOptions opt;
@@ -383,7 +392,8 @@ TEST(CouplerService, ALevelOfAnotherCaseIsRefusedAndTheMissingLevelNamed) {
 }
 
 TEST(CouplerService, ASilentLevelIsNamedAndTheOthersAreStopped) {
-  const RunResult run = run_hierarchy({2.0, 1.0}, 20, scratch("silent"), {}, 1);
+  const TempDir out("cpl_silent");
+  const RunResult run = run_hierarchy({2.0, 1.0}, 20, out.path(), {}, 1);
   EXPECT_EQ(run.code, 2);
   EXPECT_NE(run.error.find("level 'L1' went silent"), std::string::npos) << run.error;
   EXPECT_NE(run.levels[0].error.find("level 'L1' went silent"), std::string::npos)
@@ -394,7 +404,8 @@ TEST(CouplerService, ASilentLevelIsNamedAndTheOthersAreStopped) {
 }
 
 TEST(CouplerService, ThreeLevelsCoupleThroughTheMiddleOne) {
-  const RunResult run = run_hierarchy({4.0, 2.0, 1.0}, 40, scratch("three"));
+  const TempDir out("cpl_three");
+  const RunResult run = run_hierarchy({4.0, 2.0, 1.0}, 40, out.path());
   ASSERT_EQ(run.code, 0) << run.error;
   EXPECT_EQ(run.levels[0].inserted, 0u);
   EXPECT_GT(run.levels[1].inserted, 0u) << "the middle level is fine in region 0";

@@ -38,6 +38,8 @@ TEST(CouplingSamples, OneSamplePerIntervalTakesOneStressStepFewerPerIntervalOnEv
   }
   EXPECT_NE(slurp(one / "levels" / "fine" / "log.txt").find("16 steps, 1 cell samples per interval"),
             std::string::npos);
+  for (const auto& d : {two, one}) remove_run(d);
+  fs::remove(variant);
 }
 
 }  // namespace

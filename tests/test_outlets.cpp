@@ -30,12 +30,9 @@ using mlcg::test::write_stl;
 
 // ---- meshes made of square cells -------------------------------------------------------
 
-// Per test process (ctest runs this binary's tests in parallel processes: a shared folder raced).
-fs::path scratch(const std::string& name) {
-  const fs::path d = mlcg::test::fresh_temp_path("test_outlets_" + name);
-  fs::create_directories(d);
-  return d;
-}
+// The meshes are written into a folder the test makes, a TempDir: per test process (ctest runs this binary's
+// tests in parallel processes: a shared folder raced), removed when the test passes.
+using mlcg::test::TempDir;
 
 
 // A floor 0.2 x 0.1 m at z = 0 of 5 mm cells with two square holes: 3 cm at x = -0.05, 2 cm at x = 0.04.
@@ -101,16 +98,15 @@ std::string lid(const std::string& name, Vec3 c, Vec3 axis, double r) {
 
 const char* kOneLevel = "\n[[levels]]\nname = \"level0\"\nalpha = 1.0\ndt = 1e-5\n";
 
-CaseSpec two_hole_case(const std::string& more) {
-  const fs::path d = scratch("floor");
+// The mesh is written into `d`, where the case's walls read it.
+CaseSpec two_hole_case(const TempDir& d, const std::string& more) {
   two_hole_floor(d / "floor.stl");
   const std::string lids = lid("lid_a", {-0.05, 0, -0.001}, {0, 0, 1}, 0.025) + lid("lid_b", {0.04, 0, -0.001}, {0, 0, 1}, 0.018);
   const fs::path file = d / "case.toml";
   return parse_case(case_text("floor.stl", lids, more), file.string());
 }
 
-CaseSpec side_slot_case(const std::string& more) {
-  const fs::path d = scratch("side");
+CaseSpec side_slot_case(const TempDir& d, const std::string& more) {
   side_slot_bin(d / "bin.stl");
   const std::string lids = lid("lid_a", {0.051, 0, 0.0125}, {1, 0, 0}, 0.025) + lid("lid_b", {0, 0, -0.05}, {0, 0, 1}, 0.001);
   return parse_case(case_text("bin.stl", lids, more), (d / "case.toml").string());
@@ -128,7 +124,8 @@ void expect_vec(const Vec3& got, const Vec3& want, double tol, const std::string
 // ---- outlets from the geometry ------------------------------------------------------------
 
 TEST(Outlets, TwoHolesInAnStlFloorEachUnderItsLid) {
-  const auto scan = mlcg::find_outlets(two_hole_case(kOneLevel));
+  const TempDir d("test_outlets_floor");
+  const auto scan = mlcg::find_outlets(two_hole_case(d, kOneLevel));
   ASSERT_EQ(scan.outlets.size(), 2u) << all(scan.notes);
   const Outlet& a = scan.outlets[0];
   const Outlet& b = scan.outlets[1];
@@ -147,7 +144,8 @@ TEST(Outlets, TwoHolesInAnStlFloorEachUnderItsLid) {
 }
 
 TEST(Outlets, ASlotInAnStlSideWallFacesOutOfTheBin) {
-  const auto scan = mlcg::find_outlets(side_slot_case(kOneLevel));
+  const TempDir d("test_outlets_side");
+  const auto scan = mlcg::find_outlets(side_slot_case(d, kOneLevel));
   // the slot, and the tiny lid_b far below the bin (no opening under it: its own circle)
   ASSERT_EQ(scan.outlets.size(), 2u) << all(scan.notes);
   const Outlet& s = scan.outlets[0];
@@ -163,7 +161,8 @@ TEST(Outlets, ASlotInAnStlSideWallFacesOutOfTheBin) {
 }
 
 TEST(Outlets, GivenOrificesReplaceTheFoundOnesAndAreNamed) {
-  const auto cs = two_hole_case(std::string(kOneLevel) + R"(
+  const TempDir d("test_outlets_floor");
+  const auto cs = two_hole_case(d, std::string(kOneLevel) + R"(
 [[orifices]]
 name = "left"
 center = [-0.05, 0.0, 0.0]
@@ -184,8 +183,8 @@ length = 0.04
   EXPECT_EQ(scan.outlets[1].shape, "slot");
   EXPECT_TRUE(has(scan.notes, "found in the walls, replaced")) << all(scan.notes);
   try {
-    two_hole_case(std::string(kOneLevel) + "\n[orifice]\ncenter = [0, 0, 0]\ndiameter = 0.03\n\n[[orifices]]\n"
-                                          "center = [0, 0, 0]\ndiameter = 0.02\n");
+    two_hole_case(d, std::string(kOneLevel) + "\n[orifice]\ncenter = [0, 0, 0]\ndiameter = 0.03\n\n[[orifices]]\n"
+                                             "center = [0, 0, 0]\ndiameter = 0.02\n");
     ADD_FAILURE() << "both [orifice] and [[orifices]] accepted";
   } catch (const CaseError& e) {
     EXPECT_NE(std::string(e.what()).find("not both"), std::string::npos) << e.what();
@@ -244,7 +243,8 @@ cell_size = 0.02
 )";
 
 TEST(RegionRulesPerOutlet, OneRegionPerOutletPassesAndEachIsJudgedByItsOwn) {
-  const CaseSpec cs = two_hole_case(kTwoFineLevels);
+  const TempDir d("test_outlets_floor");
+  const CaseSpec cs = two_hole_case(d, kTwoFineLevels);
   const auto r = check_region_rules(cs, mlcg::find_outlets(cs));
   EXPECT_TRUE(r.errors.empty()) << all(r.errors);
   // region 0 against hole a (D0 3 cm, top 4 cm above it: 1.33 D0, passed), region 1 against hole b
@@ -261,7 +261,7 @@ TEST(RegionRulesPerOutlet, OneRegionPerOutletPassesAndEachIsJudgedByItsOwn) {
   // region 0 raised to 2 D0: no warning on either
   std::string deep = kTwoFineLevels;
   deep.replace(deep.find("max = [-0.02, 0.02, 0.04]"), 25, "max = [-0.02, 0.02, 0.06]");
-  const CaseSpec raised = two_hole_case(deep);
+  const CaseSpec raised = two_hole_case(d, deep);
   const auto both = check_region_rules(raised, mlcg::find_outlets(raised));
   EXPECT_TRUE(both.errors.empty()) << all(both.errors);
   EXPECT_FALSE(has(both.warnings, "fine regions")) << all(both.warnings);
@@ -276,7 +276,8 @@ TEST(RegionRulesPerOutlet, OneRegionPerOutletPassesAndEachIsJudgedByItsOwn) {
 }
 
 TEST(RegionRulesPerOutlet, EachProbeIsReadWhereAFineRegionHoldsItOrNamedBeforeStepOne) {
-  const CaseSpec cs = two_hole_case(kTwoFineLevels);
+  const TempDir d("test_outlets_floor");
+  const CaseSpec cs = two_hole_case(d, kTwoFineLevels);
   EXPECT_EQ(cs.levels[resolving_level(cs, cs.probes[0].point)].name, "fine_a");
   EXPECT_EQ(cs.levels[resolving_level(cs, cs.probes[1].point)].name, "fine_b");
   EXPECT_EQ(cs.levels[resolving_level(cs, cs.probes[2].point)].name, "coarse");
@@ -293,16 +294,17 @@ TEST(RegionRulesPerOutlet, EachProbeIsReadWhereAFineRegionHoldsItOrNamedBeforeSt
 
 TEST(RegionRulesPerOutlet, ATopExactlyOneWidthAboveIsTheEdgeAndAccepted) {
   // region 0's top at z = 0.03 m: exactly 1.0 D0 over hole a (the 3 cm hole, not a lid's size)
+  const TempDir d("test_outlets_floor");
   std::string text = kTwoFineLevels;
   text.replace(text.find("max = [-0.02, 0.02, 0.04]"), 25, "max = [-0.02, 0.02, 0.03]");
   text.replace(text.find("min = [-0.08, -0.04, -0.02]"), 27, "min = [-0.08, -0.04, -0.01]");
-  const CaseSpec cs = two_hole_case(text);
+  const CaseSpec cs = two_hole_case(d, text);
   const auto r = check_region_rules(cs, mlcg::find_outlets(cs));
   EXPECT_TRUE(r.errors.empty()) << all(r.errors);
   EXPECT_TRUE(has(r.warnings, "1.00 orifice diameters above the orifice ('outlet0'")) << all(r.warnings);
   // a cell lower: refused, and the fix names a height above the one given
   text.replace(text.find("max = [-0.02, 0.02, 0.03]"), 25, "max = [-0.02, 0.02, 0.01]");
-  const CaseSpec low = two_hole_case(text);
+  const CaseSpec low = two_hole_case(d, text);
   const auto refused = check_region_rules(low, mlcg::find_outlets(low));
   ASSERT_EQ(refused.errors.size(), 1u) << all(refused.errors);
   EXPECT_NE(refused.errors[0].find("0.33 orifice diameters above"), std::string::npos) << refused.errors[0];
@@ -332,7 +334,8 @@ cell_size = 0.02
 )";
 
 TEST(RegionRulesPerOutlet, ASideWallRegionIsJudgedAlongTheOutletsNormalAndNotVouchedFor) {
-  const CaseSpec cs = side_slot_case(kSideRegion);
+  const TempDir d("test_outlets_side");
+  const CaseSpec cs = side_slot_case(d, kSideRegion);
   const auto r = check_region_rules(cs, mlcg::find_outlets(cs));
   EXPECT_TRUE(r.errors.empty()) << all(r.errors);
   // 2 cm into the bin from a 1.5 cm slot: 1.33 widths along -x; its top 1.83 widths above the slot's centre
@@ -347,7 +350,7 @@ TEST(RegionRulesPerOutlet, ASideWallRegionIsJudgedAlongTheOutletsNormalAndNotVou
   // half as deep into the bin (1 cm = 0.67 widths): refused along the normal, with the fix in x
   std::string shallow = kSideRegion;
   shallow.replace(shallow.find("min = [0.03, -0.04, 0.0]"), 24, "min = [0.04, -0.04, 0.0]");
-  const CaseSpec s = side_slot_case(shallow);
+  const CaseSpec s = side_slot_case(d, shallow);
   const auto refused = check_region_rules(s, mlcg::find_outlets(s));
   ASSERT_EQ(refused.errors.size(), 1u) << all(refused.errors);
   EXPECT_NE(refused.errors[0].find("coupling.regions[0].min: the region reaches 0.67 outlet widths"), std::string::npos)
