@@ -86,7 +86,7 @@ void FaceFlux::add_born(const Vec3& x, const Vec3& v, double m, double r) {
 void FaceFlux::reduce(const Comm& comm) {
   if (comm.serial()) return;
   std::vector<double> all;
-  std::vector<double>* parts[] = {&mass, &momentum, &moment, &gross_mass, &speed_mass};
+  const auto parts = double_sums();
   for (const auto* v : parts) all.insert(all.end(), v->begin(), v->end());
   comm.sum_in_place(all.data(), all.size());
   auto at = all.begin();

@@ -9,6 +9,7 @@
 // x_c is where the centre crossed the plane, v the velocity that carried it
 // there. The crossings are counted like a mass-flow probe's (PlaneCrossings:
 // candidates near the plane, refreshed at every neighbour-list rebuild).
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -49,6 +50,11 @@ class FaceFlux {
   // Both ways added, not netted: sum m and sum m |v| per face. The coupler bounds the speed of the net
   // crossing's mean velocity by their ratio (near-cancelling crossings make momentum / mass arbitrary).
   std::vector<double> gross_mass, speed_mass;  // nf, nf
+  // The double sums above, in one order: what reduce() sums and a checkpoint keeps (GridLink::pending).
+  std::array<std::vector<double>*, 5> double_sums() { return {&mass, &momentum, &moment, &gross_mass, &speed_mass}; }
+  std::array<const std::vector<double>*, 5> double_sums() const {
+    return {&mass, &momentum, &moment, &gross_mass, &speed_mass};
+  }
 
  private:
   void add(size_t f, double m, const Vec3& v, const Vec3& x, double r, int sign);  // m < 0: outward

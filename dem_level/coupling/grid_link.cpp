@@ -94,12 +94,9 @@ void GridLink::begin_interval(const bus::GridCommands* c, const Particles& p, co
 }
 
 std::vector<double> GridLink::pending() const {
-  std::vector<double> v(flux_.mass.begin(), flux_.mass.end());
-  v.insert(v.end(), flux_.momentum.begin(), flux_.momentum.end());
-  v.insert(v.end(), flux_.moment.begin(), flux_.moment.end());
+  std::vector<double> v;
+  for (const auto* s : flux_.double_sums()) v.insert(v.end(), s->begin(), s->end());
   for (const int64_t h : flux_.histogram) v.push_back(static_cast<double>(h));  // counts far below 2^53
-  v.insert(v.end(), flux_.gross_mass.begin(), flux_.gross_mass.end());
-  v.insert(v.end(), flux_.speed_mass.begin(), flux_.speed_mass.end());
   v.push_back(removed_);
   v.push_back(removed_mass_);
   v.insert(v.end(), returned_.begin(), returned_.end());
@@ -121,12 +118,8 @@ void GridLink::set_pending(const std::vector<double>& v) {
   const auto take = [&](auto& out) {
     for (auto& x : out) x = static_cast<std::remove_reference_t<decltype(x)>>(*at++);
   };
-  take(flux_.mass);
-  take(flux_.momentum);
-  take(flux_.moment);
+  for (auto* s : flux_.double_sums()) take(*s);
   take(flux_.histogram);
-  take(flux_.gross_mass);
-  take(flux_.speed_mass);
   removed_ = *at++;
   removed_mass_ = *at++;
   returned_.assign(at, v.end());

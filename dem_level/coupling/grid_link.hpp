@@ -88,7 +88,11 @@ class GridLink {
   // interval's end, and their restoration; set_pending throws std::invalid_argument on a size that does not fit.
   std::vector<double> pending() const;
   void set_pending(const std::vector<double>& v);
-  size_t pending_size() const { return 9 * flux_.faces() + flux_.histogram.size() + 2 + returned_.size(); }
+  size_t pending_size() const {
+    size_t n = flux_.histogram.size() + 2 + returned_.size();
+    for (const auto* s : flux_.double_sums()) n += s->size();
+    return n;
+  }
   // The mass those sums carry, this rank's: crossed both ways (coarse role) and removed (fine role) [kg].
   double pending_mass() const;
 
