@@ -186,8 +186,12 @@ TEST(Curve, ClientWithoutKeysCannotRegisterAndIsLogged) {
   EXPECT_FALSE(srv.ch.receive(milliseconds(1500))) << "a client without keys got a message through";
   // ZeroMQ names the failure by how far the handshake got: a plain client's greeting is a protocol
   // error, but on a loaded machine the client may hang up first (a broken pipe). Both are refusals.
+  // The peer's address is read from the accepted socket, which a loaded machine may close first
+  // (seen in CI): then the log says so instead of naming a wrong or stale peer.
   const std::string log = srv.refused.once_it_has("refused a connection");
-  EXPECT_NE(log.find("from 127.0.0.1:"), std::string::npos) << log;
+  EXPECT_TRUE(log.find("from 127.0.0.1:") != std::string::npos ||
+              log.find("from a peer that hung up before it could be named") != std::string::npos)
+      << log;
   EXPECT_TRUE(log.find("does not use CURVE") != std::string::npos ||
               log.find("broke off before CURVE was agreed") != std::string::npos)
       << log;

@@ -335,7 +335,9 @@ void Authenticator::read_monitor() {
         reason = fmt::format("the handshake broke off before CURVE was agreed ({})", std::strerror(static_cast<int>(value)));
       else
         reason = fmt::format("handshake failed (ZeroMQ protocol error {:#x})", value);
-      const std::string who = last_peer_.empty() ? std::string("an unknown peer") : last_peer_;
+      // The fd is read after libzmq's own thread accepted it; a client that hangs up at once (a plain
+      // client meeting CURVE often does) is closed before it can be asked for its address.
+      const std::string who = last_peer_.empty() ? std::string("a peer that hung up before it could be named") : last_peer_;
       report_refused(who, fmt::format("bus: refused a connection on {} from {}: {}", monitored_[m], who, reason));
     }
   }
