@@ -84,7 +84,7 @@ class Service {
   int loop();
   // Fails the run (true) when interval k_ can never complete: a level finished early or went silent.
   bool fail_if_stuck(double t);
-  void handle(const bus::Incoming& in);
+  void handle(bus::Incoming& in);  // may take in's statistics
   void on_register(const bus::Incoming& in);
   void refuse(const std::string& peer, const std::string& why);
   // Every message to a peer goes through here; false when it could not be sent (logged).

@@ -37,8 +37,8 @@ Client::Client(const Comm& comm, ClientOptions opt) : comm_(comm), opt_(std::mov
 
 Client::~Client() = default;  // the socket (linger 0) closes before its context
 
-void Client::send(const bus::Envelope& env) {
-  ch_->send(env);
+void Client::send(bus::Envelope&& env) {
+  ch_->send(std::move(env));
   last_sent_ = Clock::now();
 }
 
@@ -84,7 +84,7 @@ std::string Client::wait_for(int want, const std::string& what, bool heartbeats,
         bus::Envelope hb;
         hb.mutable_heartbeat()->set_sim_time(sim_time);
         hb.mutable_heartbeat()->set_step(step);
-        send(hb);
+        send(std::move(hb));
       }
       continue;
     }
@@ -144,7 +144,7 @@ bus::Welcome Client::handshake(const bus::Register& reg) {
   const std::string bytes = broadcast([&] {
     bus::Envelope env;
     *env.mutable_register_level() = reg;
-    send(env);
+    send(std::move(env));
     return wait_for(bus::Envelope::kWelcome, "the welcome (registration as '" + opt_.level_name + "')", false, 0.0, 0);
   });
   bus::Welcome w;
@@ -171,11 +171,11 @@ bus::IntervalCommands Client::commands(uint64_t k, double sim_time, uint64_t ste
   return c;
 }
 
-void Client::send_stats(const bus::IntervalStats& s) {
+void Client::send_stats(bus::IntervalStats&& s) {
   if (comm_.rank() != 0) return;
   bus::Envelope env;
-  *env.mutable_stats() = s;
-  send(env);
+  env.mutable_stats()->Swap(&s);
+  send(std::move(env));
 }
 
 void Client::keepalive(double sim_time, uint64_t step) {
@@ -185,7 +185,7 @@ void Client::keepalive(double sim_time, uint64_t step) {
   bus::Envelope hb;
   hb.mutable_heartbeat()->set_sim_time(sim_time);
   hb.mutable_heartbeat()->set_step(step);
-  send(hb);
+  send(std::move(hb));
 }
 
 void Client::bye(const std::string& reason, bool failed) {
@@ -194,7 +194,7 @@ void Client::bye(const std::string& reason, bool failed) {
   env.mutable_bye()->set_reason(reason);
   env.mutable_bye()->set_failed(failed);
   try {
-    send(env);
+    send(std::move(env));
     // The socket closes with the level; give the goodbye a moment to leave (linger is 0 otherwise).
     ch_->socket().set(zmq::sockopt::linger, 2000);
   } catch (const std::exception&) {  // the coupler is gone: nothing to tell

@@ -54,7 +54,7 @@ class Client {
   // Collective: waits for the commands of interval k (heartbeats carry sim_time and step).
   bus::IntervalCommands commands(uint64_t k, double sim_time, uint64_t step);
   // Rank 0 sends; the other ranks do nothing.
-  void send_stats(const bus::IntervalStats& s);
+  void send_stats(bus::IntervalStats&& s);  // takes s's contents (not copied)
   // Rank 0: a heartbeat if nothing was sent for heartbeat seconds (cheap: one clock read).
   void keepalive(double sim_time, uint64_t step);
   // Rank 0: tells the coupler this level is done (never throws).
@@ -70,7 +70,7 @@ class Client {
   std::string wait_for(int want, const std::string& what, bool heartbeats, double sim_time, uint64_t step);
   // Every rank: rank 0's result (or error) of `fetch`.
   std::string broadcast(const std::function<std::string()>& fetch);
-  void send(const bus::Envelope& env);
+  void send(bus::Envelope&& env);
   // The error for the coupler's Bye received while waiting for `what`.
   CouplingError ended(const bus::Bye& bye, const std::string& what) const;
 

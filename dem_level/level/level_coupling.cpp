@@ -377,7 +377,7 @@ void Level::coupling_end_step() {
     c.built = true;
     if (!checkpoint) {
       PhaseTimer t(out_.times.coupling.send);
-      c.client->send_stats(c.held);
+      c.client->send_stats(std::move(c.held));
       c.sent = true;
     }
   }
@@ -398,7 +398,7 @@ void Level::coupling_end_step() {
   if (!c.sent) {
     PhaseTimer t(out_.times.coupling.send);
     if (checkpoint) c.held.set_checkpoint(path);
-    c.client->send_stats(c.held);
+    c.client->send_stats(std::move(c.held));
   }
   c.built = c.sent = false;
   ++c.k;

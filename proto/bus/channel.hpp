@@ -71,6 +71,7 @@ class Channel {
   // blocks: false, and nothing sent, when kRouterSendHwm messages wait for the peer (it does not read).
   // Dealer: blocks while the router's queue is full; always true.
   bool send(const Envelope& env, const std::string& peer = {});
+  bool send(Envelope&& env, const std::string& peer = {});  // the same, without copying env
   // Waits up to `timeout` for one message; nullopt when none arrived.
   std::optional<Incoming> receive(std::chrono::milliseconds timeout);
   // The message frame's size of the last send that returned true (for the bus load per level).
