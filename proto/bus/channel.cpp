@@ -9,9 +9,15 @@
 
 namespace mlcg::bus {
 
-std::string encode(Envelope env, const std::string& sender) {
+namespace {
+void stamp(Envelope& env, const std::string& sender) {  // what every message on the bus carries
   env.set_protocol(kProtocolVersion);
   env.set_sender(sender);
+}
+}  // namespace
+
+std::string encode(Envelope env, const std::string& sender) {
+  stamp(env, sender);
   std::string out;
   if (!env.SerializeToString(&out)) throw std::runtime_error("bus: cannot serialise a " + std::string(body_name(env)));
   return out;
@@ -94,8 +100,7 @@ bool Channel::send(const Envelope& env, const std::string& peer) { return send(E
 bool Channel::send(Envelope&& env, const std::string& peer) {
   // Stamped in place and serialised straight into the frame: a fine level's statistics (up to a few
   // hundred kB of occupants every interval) are not copied on their way out.
-  env.set_protocol(kProtocolVersion);
-  env.set_sender(role_ == Role::Router ? std::string("coupler") : identity_);
+  stamp(env, role_ == Role::Router ? std::string("coupler") : identity_);
   const size_t size = env.ByteSizeLong();
   zmq::message_t frame(size);
   env.SerializeWithCachedSizesToArray(static_cast<uint8_t*>(frame.data()));
