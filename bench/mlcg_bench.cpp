@@ -26,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bed.hpp"
+#include "core/huge_pages.hpp"
 #include "geometry.hpp"
 #include "parse.hpp"
 #include "pour.hpp"
@@ -92,11 +93,13 @@ std::string simd_built() {
 // The host's signature beside every figure: the same model name covers CPUs of different speed (issue 37:
 // two "Intel(R) Xeon(R) Processor" hosts 17 % apart), so family, model, stepping, caches and the build.
 std::string machine_line() {
-  return fmt::format("{} ({} family {} model {} stepping {}), {} cores; L1d {}, L2 {}, L3 {}; built for {} by GCC {}",
+  const std::string thp = mlcg::transparent_huge_pages_setting();
+  return fmt::format("{} ({} family {} model {} stepping {}), {} cores; L1d {}, L2 {}, L3 {}; transparent huge pages: {}; "
+                     "built for {} by GCC {}",
                      cpuinfo_field("model name"), cpuinfo_field("vendor_id"), cpuinfo_field("cpu family"),
                      cpuinfo_field("model"), cpuinfo_field("stepping"), std::thread::hardware_concurrency(),
                      cache_kib(_SC_LEVEL1_DCACHE_SIZE), cache_kib(_SC_LEVEL2_CACHE_SIZE), cache_kib(_SC_LEVEL3_CACHE_SIZE),
-                     simd_built(), __VERSION__);
+                     thp.empty() ? "none" : thp, simd_built(), __VERSION__);
 }
 
 void add_options(CLI::App& app, Options& o) {

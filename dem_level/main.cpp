@@ -13,10 +13,12 @@
 #include "bus/curve.hpp"
 #include "config/case_parser.hpp"
 #include "core/heap.hpp"
+#include "core/huge_pages.hpp"
 #include "level/level.hpp"
 
 int main(int argc, char** argv) {
   mlcg::keep_freed_memory();
+  mlcg::enable_huge_pages();
   CLI::App app{"dem_level: one DEM level of an MLCG case"};
   std::string case_file, out_dir, restart, level_name, coupler;
   int64_t max_steps = -1;

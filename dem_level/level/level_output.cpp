@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "core/huge_pages.hpp"
 #include "io/atomic_file.hpp"
 #include "io/grid_series.hpp"
 #include "io/snapshot_series.hpp"
@@ -420,7 +421,8 @@ void Level::write_summary_file(const std::string& status, const std::string& rea
         {"chosen_by", kick_.started() ? kick_.chosen_by() : "the scene (velocities read between steps)"},
         {"split_seconds", kick_.split_seconds()},
         {"fused_seconds", kick_.fused_seconds()}}},
-      {"pair_kernel", pair_kernel_json(sums)}};
+      {"pair_kernel", pair_kernel_json(sums)},
+      {"memory_pages", huge_pages_state().empty() ? "the system allocator's" : huge_pages_state()}};
   if (coupled_)
     lv["coupling"] = {{"intervals", cr.intervals}, {"inserted_from_coupler", cr.inserted},
                       {"largest_insert_overlap_of_diameter", cr.worst_insert_overlap},

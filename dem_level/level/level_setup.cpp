@@ -9,6 +9,7 @@
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "core/huge_pages.hpp"
 #include "core/spheres.hpp"
 #include "forces/integrator.hpp"
 #include "config/case_parser.hpp"
@@ -131,6 +132,7 @@ void Level::setup_contact() {
   log_->info("level '{}': alpha = {}, dt = {:.4g} s, contact model hertz + tangential {} + rolling {}{}", lvl_.name,
              physics_.alpha, physics_.dt, cs_.contact.tangential, cs_.contact.rolling,
              stepper_.choice.clamp_normal ? " (normal force clamped)" : "");
+  if (!huge_pages_state().empty()) log_->info("memory: {}", huge_pages_state());
 }
 
 void Level::setup_decomposition() {
