@@ -11,11 +11,13 @@
 
 namespace {
 
+// A large block is rounded up to whole 2 MiB pages (at most 2 MiB more per block), so that its last page is
+// one too; the kernel backs only a whole aligned 2 MiB range marked as a huge page.
 void* allocate(std::size_t n) {
   if (n >= mlcg::kHugeBlockBytes && mlcg::huge_pages_requested()) {
-    void* p = std::aligned_alloc(mlcg::kHugePageBytes, (n + mlcg::kHugePageBytes - 1) & ~(mlcg::kHugePageBytes - 1));
-    if (p) {
-      madvise(p, n, MADV_HUGEPAGE);  // advice only: where the kernel declines, the pages stay small
+    const std::size_t whole = (n + mlcg::kHugePageBytes - 1) & ~(mlcg::kHugePageBytes - 1);
+    if (void* p = std::aligned_alloc(mlcg::kHugePageBytes, whole)) {
+      madvise(p, whole, MADV_HUGEPAGE);  // advice only: where the kernel declines, the pages stay small
       return p;
     }
   }
