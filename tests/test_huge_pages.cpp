@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -51,6 +52,14 @@ TEST(HugePages, LargeBlocksStartOnA2MiBBoundaryAndAreBackedByHugePages) {
   EXPECT_EQ(a % mlcg::kHugePageBytes, 0u);
   // Both of its 2 MiB pages, the last one only partly used.
   EXPECT_GE(anon_huge_kb_at(a), 4096) << "the kernel backs (part of) the block with 4 KiB pages";
+}
+
+TEST(HugePages, TheEnvironmentsMlcgHugePages0KeepsSmallPages) {
+  setenv("MLCG_HUGE_PAGES", "0", 1);
+  const std::string state = mlcg::enable_huge_pages();
+  unsetenv("MLCG_HUGE_PAGES");
+  EXPECT_FALSE(mlcg::huge_pages_requested());
+  EXPECT_EQ(state, "4 KiB pages (MLCG_HUGE_PAGES=0)");
 }
 
 TEST(HugePages, SmallBlocksKeepTheirOwnPlace) {

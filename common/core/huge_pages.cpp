@@ -1,5 +1,6 @@
 #include "core/huge_pages.hpp"
 
+#include <cstdlib>
 #include <fstream>
 
 namespace mlcg {
@@ -18,6 +19,12 @@ std::string transparent_huge_pages_setting() {
 }
 
 std::string enable_huge_pages() {
+  const char* env = std::getenv("MLCG_HUGE_PAGES");
+  if (env && std::string(env) == "0") {
+    g_requested = false;
+    g_state = "4 KiB pages (MLCG_HUGE_PAGES=0)";
+    return g_state;
+  }
   const std::string s = transparent_huge_pages_setting();
   g_requested = s == "madvise" || s == "always";
   if (s == "always") g_state = "2 MiB pages (transparent huge pages: always)";
