@@ -80,9 +80,26 @@ class SphereHash {
     return false;
   }
 
-  // True if a stored sphere overlaps (x, r).
+  // True if a stored sphere overlaps (x, r). The answer does not depend on the order the cells are
+  // visited in, so x's own cell goes first: in a crowded slab it usually holds the sphere that rejects a
+  // candidate, and the other 26 look-ups are skipped (the coupler's planner tests many such candidates).
   bool overlaps(const Vec3& x, double r) const {
-    return find_near(x, r, [&](size_t, const Vec3& y, double ry) { return norm2(x - y) < (r + ry) * (r + ry); });
+    if (used_.empty()) return false;
+    const auto hit = [&](const Slot& s) {
+      for (uint32_t k = s.head; k != kNone; k = next_[k]) {
+        const double d = r + spheres_[k].r;
+        if (norm2(x - spheres_[k].x) < d * d) return true;
+      }
+      return false;
+    };
+    const int64_t n = static_cast<int64_t>(std::ceil((r + r_max_) * inv_));
+    const int64_t ix = cell(x.x), iy = cell(x.y), iz = cell(x.z);
+    if (hit(slots_[probe(key(ix, iy, iz))])) return true;
+    for (int64_t dz = -n; dz <= n; ++dz)
+      for (int64_t dy = -n; dy <= n; ++dy)
+        for (int64_t dx = -n; dx <= n; ++dx)
+          if ((dx != 0 || dy != 0 || dz != 0) && hit(slots_[probe(key(ix + dx, iy + dy, iz + dz))])) return true;
+    return false;
   }
 
  private:
