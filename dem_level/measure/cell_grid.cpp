@@ -5,6 +5,10 @@
 #include <stdexcept>
 #include <string>
 
+#if MLCG_VECTOR_SAMPLE
+#include <immintrin.h>
+#endif
+
 #include "core/spheres.hpp"
 #include "forces/contact_stats.hpp"
 
@@ -43,9 +47,32 @@ void CellGrid::set_stress_cells(std::vector<char> wanted) {
 
 void CellGrid::local_sample(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
                             std::vector<double>& max_speed, const std::vector<uint32_t>* only) const {
-  const size_t nc = prm_.cells();
-  sums.assign(kSums * nc, 0.0);
-  max_speed.assign(nc, 0.0);
+  sample(p, stress6, sums, max_speed, only, MLCG_VECTOR_SAMPLE != 0);
+}
+
+void CellGrid::local_sample_scalar(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
+                                   std::vector<double>& max_speed, const std::vector<uint32_t>* only) const {
+  sample(p, stress6, sums, max_speed, only, false);
+}
+
+void CellGrid::sample(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
+                      std::vector<double>& max_speed, const std::vector<uint32_t>* only, bool vector) const {
+  sums.assign(kSums * prm_.cells(), 0.0);
+  max_speed.assign(prm_.cells(), 0.0);
+#if MLCG_VECTOR_SAMPLE
+  if (vector) sum_vector(p, stress6, sums, max_speed, only);
+  else sum_scalar(p, stress6, sums, max_speed, only);
+#else
+  (void)vector;
+  sum_scalar(p, stress6, sums, max_speed, only);
+#endif
+  // The square root of the largest square is the largest speed to the last bit (sqrt is monotone and
+  // correctly rounded): one root per cell instead of one per particle.
+  for (double& s : max_speed) s = std::sqrt(s);
+}
+
+void CellGrid::sum_scalar(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
+                          std::vector<double>& max_speed, const std::vector<uint32_t>* only) const {
   const size_t n = only ? only->size() : p.n_local();
   const bool contacts = !stress6.empty();
   // The sums of the cell the last particle fell in, held in registers while the next ones fall in it too
@@ -71,7 +98,7 @@ void CellGrid::local_sample(const Particles& p, const std::vector<double>& stres
       const double* s = &sums[kSums * static_cast<size_t>(c)];
       for (size_t k = 0; k < kSums; ++k) acc[k] = s[k];
       vmax2 = max_speed[static_cast<size_t>(c)];
-      stress_here = stress_cells_.empty() || stress_cells_[static_cast<size_t>(c)] != 0;
+      stress_here = stress_wanted(c);
     }
     const double m = p.mass[i], r = p.radius[i];
     const Vec3& v = p.v[i];
@@ -95,10 +122,69 @@ void CellGrid::local_sample(const Particles& p, const std::vector<double>& stres
     vmax2 = std::max(vmax2, madd(v.z, v.z, madd(v.x, v.x, v.y * v.y)));
   }
   store();
-  // The square root of the largest square is the largest speed to the last bit (sqrt is monotone and
-  // correctly rounded): one root per cell instead of one per particle.
-  for (double& s : max_speed) s = std::sqrt(s);
 }
+
+#if MLCG_VECTOR_SAMPLE
+void CellGrid::sum_vector(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
+                          std::vector<double>& max_speed, const std::vector<uint32_t>* only) const {
+  // sum_scalar() with the cell's sums in three vector registers (sums 0-7, 8-15, 16-19) instead of an array
+  // the compiler keeps on the stack, one store and one load per sum and particle. Every lane is a
+  // multiply-add of sum_scalar()'s operands, a plain sum as fma(term, 1, sum), which is exactly the
+  // addition; a lane sum_scalar() leaves alone is masked out. So the sums are the same to the last bit
+  // (ctest CellGrid.TheVectorSampleEqualsTheScalarOneToTheBit).
+  const size_t n = only ? only->size() : p.n_local();
+  const bool contacts = !stress6.empty();
+  static constexpr double kNoContacts[6] = {0, 0, 0, 0, 0, 0};
+  const __mmask8 contacts_b = contacts ? 0xFF : 0x0F, contacts_c = contacts ? 0x3 : 0x0;
+  __m512d acc_a = _mm512_setzero_pd(), acc_b = _mm512_setzero_pd();
+  __m256d acc_c = _mm256_setzero_pd();
+  __mmask8 mask_a = 0xFF, mask_b = 0xFF, mask_c = 0x3;
+  double vmax2 = 0.0;
+  int cur = -1;
+  // Not a lambda: one that captures the accumulators by reference keeps them on the stack.
+  const auto store = [&sums, &max_speed](int cell, __m512d a, __m512d b, __m256d c, double vmax) {
+    double* s = &sums[kSums * static_cast<size_t>(cell)];
+    _mm512_storeu_pd(s, a);
+    _mm512_storeu_pd(s + 8, b);
+    _mm256_storeu_pd(s + 16, c);
+    max_speed[static_cast<size_t>(cell)] = vmax;
+  };
+  for (size_t q = 0; q < n; ++q) {
+    const size_t i = only ? (*only)[q] : q;
+    const int c = cell_of(p.x[i]);
+    if (c < 0) continue;
+    if (c != cur) {
+      if (cur >= 0) store(cur, acc_a, acc_b, acc_c, vmax2);
+      cur = c;
+      const double* s = &sums[kSums * static_cast<size_t>(c)];
+      acc_a = _mm512_loadu_pd(s);
+      acc_b = _mm512_loadu_pd(s + 8);
+      acc_c = _mm256_loadu_pd(s + 16);
+      vmax2 = max_speed[static_cast<size_t>(c)];
+      const bool stress_here = stress_wanted(c);
+      mask_a = stress_here ? 0xFF : 0x3F;
+      mask_b = stress_here ? contacts_b : 0x00;
+      mask_c = stress_here ? contacts_c : 0x00;
+    }
+    const double m = p.mass[i], r = p.radius[i];
+    const Vec3& v = p.v[i];
+    const double mvx = m * v.x, mvy = m * v.y, mvz = m * v.z;
+    const double xy = madd(mvx, v.y, mvy * v.x), xz = madd(mvx, v.z, mvz * v.x), yz = madd(mvy, v.z, mvz * v.y);
+    const double* st = contacts ? &stress6[6 * i] : kNoContacts;
+    // sums 0-7: mass, volume, count, momentum, m vx vx, m vy vy; 8-15: m vz vz, the three off-diagonal
+    // halves, contacts 0-3; 16-19: contacts 4-5 and two spare sums.
+    const __m512d a_a = _mm512_setr_pd(m, kSphereVolumeFactor * r * r, 1.0, m, m, m, mvx, mvy);
+    const __m512d b_a = _mm512_setr_pd(1.0, r, 1.0, v.x, v.y, v.z, v.x, v.y);
+    const __m512d a_b = _mm512_setr_pd(mvz, 0.5, 0.5, 0.5, st[0], st[1], st[2], st[3]);
+    const __m512d b_b = _mm512_setr_pd(v.z, xy, xz, yz, 1.0, 1.0, 1.0, 1.0);
+    acc_a = _mm512_mask3_fmadd_pd(a_a, b_a, acc_a, mask_a);
+    acc_b = _mm512_mask3_fmadd_pd(a_b, b_b, acc_b, mask_b);
+    acc_c = _mm256_mask3_fmadd_pd(_mm256_setr_pd(st[4], st[5], 0.0, 0.0), _mm256_set1_pd(1.0), acc_c, mask_c);
+    vmax2 = std::max(vmax2, madd(v.z, v.z, madd(v.x, v.x, v.y * v.y)));
+  }
+  if (cur >= 0) store(cur, acc_a, acc_b, acc_c, vmax2);
+}
+#endif
 
 void CellGrid::add_sample(const std::vector<double>& sums, const std::vector<double>& max_speed) {
   const size_t nc = prm_.cells();

@@ -14,6 +14,13 @@
 
 #include "core/particles.hpp"
 
+// The sample's sums in AVX-512 registers where the build has them (sum_vector), else one double at a time.
+#if defined(__AVX512F__) && defined(__FMA__)
+#define MLCG_VECTOR_SAMPLE 1
+#else
+#define MLCG_VECTOR_SAMPLE 0
+#endif
+
 namespace mlcg {
 
 struct GridParams {
@@ -58,6 +65,10 @@ class CellGrid {
   // are then the same to the last bit: the others add nothing).
   void local_sample(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
                     std::vector<double>& max_speed, const std::vector<uint32_t>* only = nullptr) const;
+  // The same with the one-double-at-a-time loop whatever the build: the reference the vector loop is tested
+  // against, bit for bit.
+  void local_sample_scalar(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
+                           std::vector<double>& max_speed, const std::vector<uint32_t>* only = nullptr) const;
   void add_sample(const std::vector<double>& sums, const std::vector<double>& max_speed);
   // Cells (flat index, non-zero = wanted) whose stress is summed; the others' stress stays 0 and their
   // particles skip the stress's 12 sums. Empty (the default): every cell.
@@ -67,6 +78,14 @@ class CellGrid {
   const State& state() const { return st_; }
 
  private:
+  bool stress_wanted(int c) const { return stress_cells_.empty() || stress_cells_[static_cast<size_t>(c)] != 0; }
+  void sample(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
+              std::vector<double>& max_speed, const std::vector<uint32_t>* only, bool vector) const;
+  // The per-particle loops of sample(): add to sums and square speeds zeroed by the caller.
+  void sum_scalar(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
+                  std::vector<double>& max_speed, const std::vector<uint32_t>* only) const;
+  void sum_vector(const Particles& p, const std::vector<double>& stress6, std::vector<double>& sums,
+                  std::vector<double>& max_speed, const std::vector<uint32_t>* only) const;
   GridParams prm_;
   State st_;
   std::vector<char> stress_cells_;
