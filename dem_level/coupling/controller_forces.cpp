@@ -77,12 +77,15 @@ void ControllerForces::normalise(const Particles& p, const Comm& comm) {
     sums[nf + 1] += 1.0;
   }
   const size_t ms = geo_.open_sides().empty() ? 0 : near_valid_ ? near_side_.size() : p.n_local();
+  const auto& sides = geo_.open_sides();
   for (size_t q = 0; q < ms; ++q) {
     const size_t i = near_valid_ ? near_side_[q] : q;
+    const uint32_t mask = near_valid_ ? near_side_mask_[q] : ~0u;
     int cell = -2;  // located once per particle, on its first side within the fade depth
-    for (const bus::Side sd : geo_.open_sides()) {
+    for (size_t k = 0; k < sides.size(); ++k) {
+      if (!(mask >> k & 1u)) continue;
       int f = -1;
-      const double w = side_weight(p.x[i], p.radius[i], sd, cell, f);
+      const double w = side_weight(p.x[i], p.radius[i], sides[k], cell, f);
       if (f >= 0) sums[static_cast<size_t>(f)] += w;
     }
   }
@@ -105,33 +108,41 @@ double ControllerForces::side_weight(const Vec3& x, double r, bus::Side side, in
   return face < 0 ? 0.0 : sphere_volume(r) * (1.0 - s / depth_);
 }
 
-bool ControllerForces::may_reach_side_face(const Vec3& x, double band) const {
+uint32_t ControllerForces::sides_within_reach(const Vec3& x, double band) const {
   // Until the next refresh x stays within the cube of half-edge band around it; with 2 band below a cell's
   // edge the cells that cube touches are those of its corners. A side whose cells there have no boundary
   // face (closed by the walls, outside the vessel) presses nothing.
   const bool corners = 2.0 * band < geo_.cell_size();
-  for (const bus::Side sd : geo_.open_sides()) {
-    const double s = geo_.depth_inside(sd, x);
+  const auto& sides = geo_.open_sides();
+  uint32_t mask = 0;
+  for (size_t k = 0; k < sides.size(); ++k) {
+    const double s = geo_.depth_inside(sides[k], x);
     if (!(s > -band && s < depth_ + band)) continue;
-    if (!corners) return true;
-    for (int k = 0; k < 8; ++k) {
-      const Vec3 y{x.x + (k & 1 ? band : -band), x.y + (k & 2 ? band : -band), x.z + (k & 4 ? band : -band)};
-      const int c = geo_.locate(y);
-      if (c >= 0 && geo_.side_face(static_cast<size_t>(c), sd) >= 0) return true;
+    bool reach = !corners;
+    for (int c = 0; c < 8 && !reach; ++c) {
+      const Vec3 y{x.x + (c & 1 ? band : -band), x.y + (c & 2 ? band : -band), x.z + (c & 4 ? band : -band)};
+      const int cell = geo_.locate(y);
+      reach = cell >= 0 && geo_.side_face(static_cast<size_t>(cell), sides[k]) >= 0;
     }
+    if (reach) mask |= 1u << k;
   }
-  return false;
+  return mask;
 }
 
 void ControllerForces::refresh(const Particles& p, double band, size_t from) {
   if (from == 0) {
     near_top_.clear();
     near_side_.clear();
+    near_side_mask_.clear();
   }
   for (size_t i = from; i < p.n_local(); ++i) {
     const double s = top_ - p.x[i].z;
     if (s > -band && s < depth_ + band) near_top_.push_back(static_cast<uint32_t>(i));
-    if (!geo_.open_sides().empty() && may_reach_side_face(p.x[i], band)) near_side_.push_back(static_cast<uint32_t>(i));
+    if (geo_.open_sides().empty()) continue;
+    if (const uint32_t mask = sides_within_reach(p.x[i], band)) {
+      near_side_.push_back(static_cast<uint32_t>(i));
+      near_side_mask_.push_back(mask);
+    }
   }
   near_valid_ = true;
 }
@@ -146,13 +157,16 @@ Vec3 ControllerForces::limited(const Vec3& F, const Vec3& v, size_t f) const {
 void ControllerForces::apply_sides(Particles& p) const {
   // An open side is pressed like the top: its traction along the inward normal, on the particles
   // within the fade depth inside it, shared by weight.
+  const auto& sides = geo_.open_sides();
   const size_t m = near_valid_ ? near_side_.size() : p.n_local();
   for (size_t q = 0; q < m; ++q) {
     const size_t i = near_valid_ ? near_side_[q] : q;
+    const uint32_t mask = near_valid_ ? near_side_mask_[q] : ~0u;  // the sides it can be pressed by
     int cell = -2;
-    for (const bus::Side sd : geo_.open_sides()) {
+    for (size_t k = 0; k < sides.size(); ++k) {
+      if (!(mask >> k & 1u)) continue;
       int f = -1;
-      const double w = side_weight(p.x[i], p.radius[i], sd, cell, f);
+      const double w = side_weight(p.x[i], p.radius[i], sides[k], cell, f);
       if (f < 0) continue;
       const auto fs = static_cast<size_t>(f);
       if (wsum_[fs] <= 0.0 || traction_[fs] == 0.0) continue;

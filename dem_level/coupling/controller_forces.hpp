@@ -51,8 +51,9 @@ class ControllerForces {
  private:
   void apply_sides(Particles& p) const;
   Vec3 limited(const Vec3& F, const Vec3& v, size_t f) const;  // without the part beyond the speed limit
-  // Whether x, moving less than band, may come within the fade depth inside a side face.
-  bool may_reach_side_face(const Vec3& x, double band) const;
+  // The open sides (bit k: open_sides()[k]) whose faces x, moving less than band, may come within the
+  // fade depth of: the only sides apply() and normalise() look at for it until the next refresh.
+  uint32_t sides_within_reach(const Vec3& x, double band) const;
   bus::CouplingGeometry geo_;
   double top_ = 0.0, depth_ = 0.0;
   std::vector<double> area_;  // per face: its area inside the walls [m^2]
@@ -62,6 +63,7 @@ class ControllerForces {
   // refresh(): candidates for the traction on the top faces and on the open sides. Every step visits
   // them, so each list holds only the particles its loop can press.
   std::vector<uint32_t> near_top_, near_side_;
+  std::vector<uint32_t> near_side_mask_;  // per near_side_ entry: sides_within_reach()
   bool near_valid_ = false;
 };
 
