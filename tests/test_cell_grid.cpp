@@ -167,7 +167,8 @@ TEST(CellGrid, TheLargestSpeedAndTheCountAreEachCellsOwn) {
 }
 
 // The sample this build runs (in vector registers where it has AVX-512) against the scalar loop, bit for
-// bit: with and without contacts, a stress mask, and a candidate list that leaves particles out.
+// bit: with and without contacts, a stress mask, and a candidate list that leaves particles out. A build
+// without AVX-512 runs the scalar loop in both.
 TEST(CellGrid, TheVectorSampleEqualsTheScalarOneToTheBit) {
   const Bed b = make_bed(4000, 14);
   CellGrid g(b.grid);

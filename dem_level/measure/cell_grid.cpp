@@ -75,9 +75,9 @@ void CellGrid::sum_scalar(const Particles& p, const std::vector<double>& stress6
                           std::vector<double>& max_speed, const std::vector<uint32_t>* only) const {
   const size_t n = only ? only->size() : p.n_local();
   const bool contacts = !stress6.empty();
-  // The sums of the cell the last particle fell in, held in registers while the next ones fall in it too
-  // (the particles are sorted in space, so they come in runs): each cell's sums are added to in the same
-  // order as one particle at a time through memory, so they are the same to the last bit.
+  // The sums of the cell the last particle fell in, kept while the next ones fall in it too (the particles
+  // are sorted in space, so they come in runs): each cell's sums are added to in the same order as one
+  // particle at a time through memory, so they are the same to the last bit.
   double acc[kSums];
   double vmax2 = 0.0;
   int cur = -1;
@@ -141,7 +141,7 @@ void CellGrid::sum_vector(const Particles& p, const std::vector<double>& stress6
   __mmask8 mask_a = 0xFF, mask_b = 0xFF, mask_c = 0x3;
   double vmax2 = 0.0;
   int cur = -1;
-  // Not a lambda: one that captures the accumulators by reference keeps them on the stack.
+  // The accumulators go to the lambda by value: captured by reference, they would live on the stack.
   const auto store = [&sums, &max_speed](int cell, __m512d a, __m512d b, __m256d c, double vmax) {
     double* s = &sums[kSums * static_cast<size_t>(cell)];
     _mm512_storeu_pd(s, a);
